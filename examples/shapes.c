@@ -1,0 +1,1 @@
+typedef int shapes_placeholder_;

@@ -1,0 +1,468 @@
+/*
+ * phks.h - libphks, persistent heat signatures for pose-oblivious matching
+ * of complete, partial and incomplete triangle meshes.
+ *
+ * This header is the manual. Every function states what it does, the units
+ * of its numbers, who owns what, the statuses it returns and whether it may
+ * be called from several threads at once.
+ *
+ * The method is Dey, Li, Luo, Ranjan, Safa, Wang: "Persistent Heat Signature
+ * for Pose-oblivious Matching of Incomplete Models" (SGP 2010):
+ *
+ *   mesh --(normalise to a unit box)--> Belkin-Sun-Wang mesh-Laplacian
+ *        --(smallest eigenpairs)------> heat kernel signature HKS_t
+ *        --(persistence region merging of HKS at t = 5 tau)--> feature points
+ *        --(HKS at 15 time scales per feature point)--> signature
+ *   two signatures --(symmetric sum of nearest L1 distances)--> score
+ *
+ * Conventions that hold everywhere:
+ * - Every function that can fail returns a phks_status. On failure, output
+ *   handles are set to NULL, nothing is leaked, and
+ *   phks_last_error_message() tells what went wrong and where.
+ * - The library never prints, never aborts and never exits.
+ * - Handles are opaque. A handle is created by exactly one *_create, *_load,
+ *   *_compute or *_decode function and released by its *_free function;
+ *   *_free(NULL) does nothing.
+ * - Thread-safety: functions that take only const handles may be called
+ *   from any number of threads at once on the same handles. A handle must
+ *   not be freed while another thread uses it. phks_set_allocator() is the
+ *   one function that must be called before any other thread uses the
+ *   library.
+ * - Pointers returned by accessors stay valid until the handle is freed.
+ * - Index types: vertex and triangle indices are uint32_t; counts are size_t.
+ */
+#ifndef PHKS_H
+#define PHKS_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#if defined(_WIN32) && defined(PHKS_BUILDING_DLL)
+#define PHKS_API __declspec(dllexport)
+#elif defined(__GNUC__) || defined(__clang__)
+#define PHKS_API __attribute__((visibility("default")))
+#else
+#define PHKS_API
+#endif
+
+/* =====================================================================
+ * Versions
+ * =====================================================================
+ * The package version below is the single source of truth: the build reads
+ * it from here. PHKS_ABI_VERSION is the SONAME major (libphks.so.N); it
+ * changes only when a published function or struct layout changes
+ * incompatibly. Versions with the same ABI version are binary compatible:
+ * a program built against an older header runs with a newer library.
+ */
+#define PHKS_VERSION_MAJOR 0
+#define PHKS_VERSION_MINOR 1
+#define PHKS_VERSION_PATCH 0
+#define PHKS_VERSION_NUMBER \
+    (PHKS_VERSION_MAJOR * 10000 + PHKS_VERSION_MINOR * 100 + PHKS_VERSION_PATCH)
+#define PHKS_ABI_VERSION 1
+
+/* The library's own PHKS_VERSION_NUMBER, which may differ from the header's
+ * when a program runs against a newer shared library. Thread-safe. */
+PHKS_API unsigned phks_version_number(void);
+/* "MAJOR.MINOR.PATCH" of the library, a static string. Thread-safe. */
+PHKS_API const char *phks_version_string(void);
+
+/* =====================================================================
+ * Status codes
+ * =====================================================================
+ * Values are frozen: new codes are only ever appended.
+ */
+typedef enum phks_status {
+    PHKS_OK = 0,
+    PHKS_ERROR_INVALID_ARGUMENT = 1,  /* NULL where not allowed, bad option  */
+    PHKS_ERROR_OUT_OF_MEMORY = 2,     /* an allocation failed                */
+    PHKS_ERROR_IO = 3,                /* a file could not be opened or read  */
+    PHKS_ERROR_UNKNOWN_FORMAT = 4,    /* not OFF, OBJ, PLY or STL            */
+    PHKS_ERROR_PARSE = 5,             /* malformed content (syntax, types)   */
+    PHKS_ERROR_TRUNCATED = 6,         /* data ends before the header says    */
+    PHKS_ERROR_NON_FINITE = 7,        /* a NaN or infinite number            */
+    PHKS_ERROR_INDEX_OUT_OF_RANGE = 8,/* a face names a missing vertex       */
+    PHKS_ERROR_NO_TRIANGLES = 9,      /* nothing to triangulate              */
+    PHKS_ERROR_ZERO_AREA = 10,        /* all triangles degenerate, or a mesh
+                                         with no extent (a point, a line)    */
+    PHKS_ERROR_TOO_LARGE = 11,        /* counts beyond limits or beyond what
+                                         the data could hold                 */
+    PHKS_ERROR_CANCELLED = 12,        /* the progress callback asked to stop */
+    PHKS_ERROR_NO_CONVERGENCE = 13,   /* the eigen-solver did not converge   */
+    PHKS_ERROR_INCOMPATIBLE = 14,     /* signatures made with other options  */
+    PHKS_ERROR_CORRUPT = 15,          /* a blob failed its checksum or shape */
+    PHKS_ERROR_UNSUPPORTED_VERSION = 16, /* a blob from a newer format       */
+    PHKS_ERROR_BUFFER_TOO_SMALL = 17, /* the caller's buffer is too small    */
+    PHKS_ERROR_SOLVER = 18            /* LAPACK or ARPACK reported a failure */
+} phks_status;
+
+/* A short static English description of a status ("out of memory").
+ * Unknown values give "unknown status". Thread-safe. */
+PHKS_API const char *phks_status_string(phks_status status);
+
+/* The detail of the last failure in the calling thread, for example
+ * "bunny.ply: line 14: vertex 3: coordinate is not finite". Each thread has
+ * its own message, so threads never see each other's errors. The string is
+ * owned by the library and valid until the next failing call in the same
+ * thread. Successful calls leave it unchanged. "" if nothing failed yet. */
+PHKS_API const char *phks_last_error_message(void);
+
+/* =====================================================================
+ * Memory
+ * =====================================================================
+ * All memory the library itself allocates goes through these functions.
+ * (OpenBLAS, LAPACK and ARPACK allocate their own small internal buffers
+ * through the C library; those are outside this hook.)
+ */
+typedef struct phks_allocator {
+    void *(*malloc_fn)(void *user, size_t size);
+    void *(*realloc_fn)(void *user, void *ptr, size_t size);
+    void (*free_fn)(void *user, void *ptr);
+    void *user;
+} phks_allocator;
+
+/* Replaces the allocator; NULL restores malloc/realloc/free. The three
+ * functions must be thread-safe and must all be set. Call it before any
+ * other phks_* call and before any handle exists: memory is released with
+ * the allocator in force when it is freed. Returns PHKS_OK, or
+ * PHKS_ERROR_INVALID_ARGUMENT when a function pointer is NULL. */
+PHKS_API phks_status phks_set_allocator(const phks_allocator *allocator);
+
+/* =====================================================================
+ * Options
+ * =====================================================================
+ * The parameters of the method. Always start from phks_options_init(), then
+ * change fields. The struct has a fixed size for the whole ABI version: new
+ * fields are carved out of `reserved`, and phks_options_init() gives them
+ * values that keep the older behaviour unless the new field is set.
+ */
+#define PHKS_OPTIONS_VERSION 1
+#define PHKS_MAX_SCALES 32
+
+/* How the heat operator is normalised. */
+typedef enum phks_operator {
+    /* The paper's operator: S phi = lambda M phi, M = diag(vertex areas). */
+    PHKS_OPERATOR_LITERAL = 0,
+    /* Random-walk normalisation D^-1 L (the paper's appendix B D):
+     * S phi = lambda M D phi. D is the kernel density at each vertex; it
+     * evens out HKS at boundaries and at sparsely sampled spots. */
+    PHKS_OPERATOR_RANDOM_WALK = 1
+} phks_operator;
+
+/* How the mesh is scaled to a unit box before anything else. */
+typedef enum phks_box {
+    /* Longest side of the box aligned with the principal axes of the
+     * surface is 1. Invariant to rotations of the input. */
+    PHKS_BOX_PRINCIPAL = 0,
+    /* Longest side of the axis-aligned bounding box is 1 (the paper's
+     * choice; changes when the input is rotated). */
+    PHKS_BOX_AXIS_ALIGNED = 1
+} phks_box;
+
+typedef enum phks_solver {
+    /* Dense LAPACK for small meshes, block Lanczos above. */
+    PHKS_SOLVER_AUTO = 0,
+    /* Block Lanczos with full re-orthogonalisation (BLAS3). Thread-safe. */
+    PHKS_SOLVER_LANCZOS = 1,
+    /* ARPACK-NG (implicitly restarted Lanczos). The reference; slower.
+     * ARPACK keeps global state, so the library serialises these calls. */
+    PHKS_SOLVER_ARPACK = 2,
+    /* Dense LAPACK (dsyevr) on the full matrix. O(n^2) memory, O(n^3) time:
+     * meant for meshes of a few thousand vertices. */
+    PHKS_SOLVER_DENSE = 3
+} phks_solver;
+
+/* Stages reported to the progress callback, in order. */
+typedef enum phks_stage {
+    PHKS_STAGE_OPERATOR = 0,     /* building the mesh-Laplacian          */
+    PHKS_STAGE_EIGEN = 1,        /* eigen-decomposition                  */
+    PHKS_STAGE_HKS = 2,          /* heat kernel signature                */
+    PHKS_STAGE_PERSISTENCE = 3,  /* region merging, feature vectors      */
+    PHKS_STAGE_COUNT = 4
+} phks_stage;
+
+/* Called from the thread that called the long-running function, with the
+ * fraction of the current stage done (0..1). Return 0 to continue, non-zero
+ * to cancel: the function then returns PHKS_ERROR_CANCELLED promptly (the
+ * eigen-solver checks between operator applications). */
+typedef int (*phks_progress_fn)(void *user, phks_stage stage, double fraction);
+
+typedef struct phks_options {
+    uint32_t version;        /* PHKS_OPTIONS_VERSION; set by init        */
+    uint32_t eigen_count;    /* eigenpairs computed: 300                 */
+    double tau;              /* time unit = kernel parameter h: 0.0002,
+                                for a mesh scaled to a unit box          */
+    double cutoff;           /* kernel cut-off radius in units of
+                                sqrt(4 tau): 3.5 (dropped weight < 5e-6)   */
+    uint32_t feature_count;  /* kappa, the number of feature points: 15  */
+    uint32_t scale_count;    /* number of entries used in scales: 15     */
+    double scales[PHKS_MAX_SCALES]; /* HKS time scales in units of tau:
+                                5 20 40 60 100 150 200 300 400 500 600 700
+                                800 900 1000                              */
+    double feature_scale;    /* time of the HKS whose maxima are the
+                                feature points, in units of tau: 5        */
+    int32_t operator_kind;   /* phks_operator: PHKS_OPERATOR_LITERAL     */
+    int32_t box;             /* phks_box: PHKS_BOX_PRINCIPAL             */
+    int32_t solver;          /* phks_solver: PHKS_SOLVER_AUTO            */
+    uint32_t threads;        /* worker threads for the operator; 0 = one
+                                per CPU. BLAS threads are left to the
+                                user (OPENBLAS_NUM_THREADS).             */
+    double tolerance;        /* eigen-solver: residual |B x - l x| below
+                                tolerance * |B|: 1e-10                   */
+    phks_progress_fn progress; /* NULL: no progress reports             */
+    void *progress_user;     /* passed back to progress                  */
+    uint64_t reserved[24];   /* zero; room for fields of later versions  */
+} phks_options;
+
+/* Fills *options with the defaults above. Thread-safe. Returns
+ * PHKS_ERROR_INVALID_ARGUMENT if options is NULL. */
+PHKS_API phks_status phks_options_init(phks_options *options);
+
+/* =====================================================================
+ * Meshes
+ * =====================================================================
+ * A phks_mesh is an immutable, cleaned triangle mesh: degenerate triangles
+ * (a repeated vertex, or an area below 1e-12 of the squared bounding-box
+ * diagonal) and unreferenced vertices are dropped, the remaining vertices
+ * renumbered in their original order. phks_mesh_vertex_origin() maps each
+ * vertex back to the caller's or the file's numbering. Non-manifold edges,
+ * several components and triangle soups are accepted: the operator needs
+ * only positions and areas.
+ */
+typedef struct phks_mesh phks_mesh;
+
+/* Creates a mesh from caller arrays, which are copied: xyz holds
+ * 3 * vertex_count coordinates (x0 y0 z0 x1 ...), any unit; triangles holds
+ * 3 * triangle_count vertex indices. Errors: PHKS_ERROR_INVALID_ARGUMENT
+ * (NULL pointers), PHKS_ERROR_NON_FINITE, PHKS_ERROR_INDEX_OUT_OF_RANGE,
+ * PHKS_ERROR_NO_TRIANGLES (triangle_count 0), PHKS_ERROR_ZERO_AREA,
+ * PHKS_ERROR_TOO_LARGE (more than 2^32 - 2 vertices or triangles),
+ * PHKS_ERROR_OUT_OF_MEMORY. Thread-safe. */
+PHKS_API phks_status phks_mesh_create(const double *xyz, size_t vertex_count,
+                                      const uint32_t *triangles,
+                                      size_t triangle_count, phks_mesh **mesh);
+/* Same as phks_mesh_create with single-precision coordinates. */
+PHKS_API phks_status phks_mesh_create_f(const float *xyz, size_t vertex_count,
+                                        const uint32_t *triangles,
+                                        size_t triangle_count, phks_mesh **mesh);
+
+typedef enum phks_format {
+    PHKS_FORMAT_AUTO = 0, /* from the content (and, for files, the name) */
+    PHKS_FORMAT_OFF = 1,
+    PHKS_FORMAT_OBJ = 2,
+    PHKS_FORMAT_PLY = 3,  /* ascii, binary_little_endian, binary_big_endian */
+    PHKS_FORMAT_STL = 4   /* ascii or binary; coincident corners welded     */
+} phks_format;
+
+/* Reads a mesh file: OFF, OBJ (polygons fan-triangulated, negative indices,
+ * everything but v and f ignored), PLY (any property layout and types; a
+ * face list named vertex_indices or vertex_index), STL. Each may be
+ * gzip-compressed; gzip is recognised by its magic bytes, the format by the
+ * name (".off", ".obj", ".ply", ".stl", each optionally followed by ".gz")
+ * or else by the content. A gzip stream may inflate to at most 2 GiB.
+ * Errors: PHKS_ERROR_IO, PHKS_ERROR_UNKNOWN_FORMAT, PHKS_ERROR_PARSE,
+ * PHKS_ERROR_TRUNCATED, PHKS_ERROR_TOO_LARGE, and those of
+ * phks_mesh_create; the message names the file and the line (text) or byte
+ * offset (binary). Thread-safe. */
+PHKS_API phks_status phks_mesh_load(const char *path, phks_mesh **mesh);
+/* Same as phks_mesh_load from a buffer in memory (not retained), in the
+ * given format (PHKS_FORMAT_AUTO: from the content). Thread-safe. */
+PHKS_API phks_status phks_mesh_load_memory(const void *data, size_t size,
+                                           phks_format format,
+                                           phks_mesh **mesh);
+PHKS_API void phks_mesh_free(phks_mesh *mesh);
+
+/* Counts and arrays of the cleaned mesh. On a NULL mesh the counts are 0
+ * and the arrays NULL. The arrays belong to the mesh. */
+PHKS_API size_t phks_mesh_vertex_count(const phks_mesh *mesh);
+PHKS_API size_t phks_mesh_triangle_count(const phks_mesh *mesh);
+/* 3 * vertex_count coordinates, as given (not normalised). */
+PHKS_API const double *phks_mesh_vertices(const phks_mesh *mesh);
+/* 3 * triangle_count indices into phks_mesh_vertices. */
+PHKS_API const uint32_t *phks_mesh_triangles(const phks_mesh *mesh);
+/* For each vertex, its index in the input arrays or file. */
+PHKS_API const uint32_t *phks_mesh_vertex_origin(const phks_mesh *mesh);
+/* Edges with exactly one incident triangle, as 2 * count vertex indices
+ * (lower index first, sorted). */
+PHKS_API size_t phks_mesh_boundary_edge_count(const phks_mesh *mesh);
+PHKS_API const uint32_t *phks_mesh_boundary_edges(const phks_mesh *mesh);
+/* Connected components (triangles sharing a vertex are connected), and for
+ * each vertex its component, numbered 0.. in order of lowest vertex. */
+PHKS_API size_t phks_mesh_component_count(const phks_mesh *mesh);
+PHKS_API const uint32_t *phks_mesh_vertex_components(const phks_mesh *mesh);
+/* Total surface area, in input units squared. */
+PHKS_API double phks_mesh_area(const phks_mesh *mesh);
+
+/* =====================================================================
+ * Spectrum: the mesh-Laplacian and its smallest eigenpairs
+ * =====================================================================
+ * The mesh is first scaled to a unit box (options->box). Then, with
+ * h = options->tau, A_p a third of the area around vertex p and
+ * W(w,p) = exp(-|w-p|^2 / 4h) for |w-p| < cutoff * sqrt(4h):
+ *   S = (diag(K 1) - K) / (4 pi h^2),  K_wp = A_w A_p W(w,p)  (w != p),
+ *   S phi = lambda M phi,  M = diag(A) (literal) or diag(A) D (random walk).
+ * Eigenvalues ascend from 0 (one 0 per cluster of vertices the kernel
+ * joins); eigenvectors are M-orthonormal: phi_i^T M phi_j = delta_ij. Each
+ * eigenvector's sign is fixed so that its entry of largest magnitude is
+ * positive, which makes results repeatable.
+ */
+typedef struct phks_spectrum phks_spectrum;
+
+/* Computes min(options->eigen_count, vertex_count) eigenpairs. options may
+ * be NULL (defaults). Errors: PHKS_ERROR_INVALID_ARGUMENT (NULL mesh or
+ * out, options not from phks_options_init or out of range),
+ * PHKS_ERROR_OUT_OF_MEMORY, PHKS_ERROR_CANCELLED, PHKS_ERROR_NO_CONVERGENCE,
+ * PHKS_ERROR_SOLVER. Thread-safe (ARPACK calls are serialised inside). */
+PHKS_API phks_status phks_spectrum_compute(const phks_mesh *mesh,
+                                           const phks_options *options,
+                                           phks_spectrum **spectrum);
+PHKS_API void phks_spectrum_free(phks_spectrum *spectrum);
+/* Number of eigenpairs (0 for NULL). */
+PHKS_API size_t phks_spectrum_count(const phks_spectrum *spectrum);
+/* Length of each eigenvector: the mesh's vertex count. */
+PHKS_API size_t phks_spectrum_vertex_count(const phks_spectrum *spectrum);
+/* The eigenvalues, ascending, in units of 1 / (unit-box length)^2. */
+PHKS_API const double *phks_spectrum_eigenvalues(const phks_spectrum *spectrum);
+/* Eigenvector i (vertex_count values), or NULL if i is out of range. */
+PHKS_API const double *phks_spectrum_eigenvector(const phks_spectrum *spectrum,
+                                                 size_t i);
+/* The diagonal of M (vertex_count values): the inner product under which
+ * the eigenvectors are orthonormal. */
+PHKS_API const double *phks_spectrum_mass(const phks_spectrum *spectrum);
+/* HKS_t(x) = sum_i exp(-t lambda_i) phi_i(x)^2 for every vertex x, into out
+ * (vertex_count values). t is absolute time on the unit-box mesh (t = 5 tau
+ * is 0.001 by default), t >= 0. Errors: PHKS_ERROR_INVALID_ARGUMENT.
+ * Thread-safe. */
+PHKS_API phks_status phks_spectrum_hks(const phks_spectrum *spectrum, double t,
+                                       double *out);
+
+/* =====================================================================
+ * Persistent maxima and segmentation
+ * ===================================================================== */
+typedef struct phks_maximum {
+    uint32_t vertex;     /* vertex of highest f of the central triangle     */
+    uint32_t triangle;   /* the central triangle of the region              */
+    double value;        /* f at vertex                                     */
+    double persistence;  /* its true persistence; INFINITY if never merged  */
+} phks_maximum;
+
+/* Region merging (paper section 3.2) of triangles for the vertex function
+ * f (vertex_count finite values): every triangle starts as a region; the
+ * region of least persistence is merged into its neighbour across its
+ * highest boundary edge, until at most max_count regions remain and every
+ * region's persistence exceeds threshold (threshold >= 0; zero-persistence
+ * regions, which are not maxima, are always merged). Ties are broken by the
+ * filtration order (value, then index), so results never vary between runs.
+ * Mesh-boundary edges are ignored; a non-manifold edge joins all its
+ * triangles.
+ * out (room for min(max_count, triangle_count) entries) receives the
+ * surviving maxima, most persistent first; *count their number.
+ * region_of_triangle, if not NULL, receives for each triangle the index in
+ * out of its region: the segmentation. Errors: PHKS_ERROR_INVALID_ARGUMENT
+ * (NULL, max_count 0, negative or NaN threshold), PHKS_ERROR_NON_FINITE
+ * (in f), PHKS_ERROR_OUT_OF_MEMORY. Thread-safe. */
+PHKS_API phks_status phks_persistent_maxima(const phks_mesh *mesh,
+                                            const double *f, size_t max_count,
+                                            double threshold, phks_maximum *out,
+                                            size_t *count,
+                                            uint32_t *region_of_triangle);
+
+/* =====================================================================
+ * Signatures
+ * =====================================================================
+ * A signature is the list of feature points (the persistent maxima of
+ * HKS at options->feature_scale) with, for each, the vector of HKS values
+ * at options->scales. It remembers the options that shape its numbers;
+ * signatures made with different ones refuse to be compared.
+ */
+typedef struct phks_signature phks_signature;
+
+/* Runs the whole pipeline on mesh. options may be NULL (defaults). Errors:
+ * those of phks_spectrum_compute. Thread-safe. */
+PHKS_API phks_status phks_signature_compute(const phks_mesh *mesh,
+                                            const phks_options *options,
+                                            phks_signature **signature);
+/* Same from a spectrum already computed for this mesh. Returns
+ * PHKS_ERROR_INVALID_ARGUMENT if the spectrum's vertex count is not the
+ * mesh's. options must be those the spectrum was computed with. */
+PHKS_API phks_status phks_signature_from_spectrum(const phks_mesh *mesh,
+                                                  const phks_spectrum *spectrum,
+                                                  const phks_options *options,
+                                                  phks_signature **signature);
+PHKS_API void phks_signature_free(phks_signature *signature);
+
+/* Number of feature points (at most options->feature_count; fewer when the
+ * HKS has fewer maxima) and the length of each vector (scale_count). */
+PHKS_API size_t phks_signature_feature_count(const phks_signature *signature);
+PHKS_API size_t phks_signature_vector_length(const phks_signature *signature);
+/* Feature i: mesh vertex, position in input coordinates (3 doubles into
+ * xyz), persistence, and the HKS vector (vector_length values, owned by the
+ * signature). Out-of-range i gives UINT32_MAX, PHKS_ERROR_INVALID_ARGUMENT,
+ * NaN and NULL respectively. Features come most persistent first. */
+PHKS_API uint32_t phks_signature_feature_vertex(const phks_signature *signature,
+                                                size_t i);
+PHKS_API phks_status phks_signature_feature_position(
+    const phks_signature *signature, size_t i, double xyz[3]);
+PHKS_API double phks_signature_feature_persistence(
+    const phks_signature *signature, size_t i);
+PHKS_API const double *phks_signature_feature_vector(
+    const phks_signature *signature, size_t i);
+
+/* Serialisation: a versioned, little-endian, CRC-32-checked byte blob that
+ * every later version of the library decodes (docs/formats.md).
+ * phks_signature_encoded_size gives the exact blob size. encode writes it
+ * into buffer (capacity bytes) and its size into *size; with too small a
+ * buffer it returns PHKS_ERROR_BUFFER_TOO_SMALL and still sets *size.
+ * decode makes a new signature from a blob; errors PHKS_ERROR_CORRUPT
+ * (checksum, impossible field), PHKS_ERROR_TRUNCATED,
+ * PHKS_ERROR_UNSUPPORTED_VERSION (a newer format), PHKS_ERROR_OUT_OF_MEMORY.
+ * Thread-safe. */
+PHKS_API size_t phks_signature_encoded_size(const phks_signature *signature);
+PHKS_API phks_status phks_signature_encode(const phks_signature *signature,
+                                           void *buffer, size_t capacity,
+                                           size_t *size);
+PHKS_API phks_status phks_signature_decode(const void *buffer, size_t size,
+                                           phks_signature **signature);
+
+/* =====================================================================
+ * Scoring and correspondences
+ * =====================================================================
+ * score(A, B) = sum_{a in A} min_{b in B} |a - b|_1
+ *             + sum_{b in B} min_{a in A} |a - b|_1
+ * over the feature vectors. Lower is more similar; 0 for identical
+ * signatures; symmetric; not a metric. Errors: PHKS_ERROR_INVALID_ARGUMENT
+ * (NULL), PHKS_ERROR_INCOMPATIBLE (made with different options).
+ * Thread-safe.
+ */
+PHKS_API phks_status phks_score(const phks_signature *a,
+                                const phks_signature *b, double *score);
+
+typedef struct phks_correspondence {
+    uint32_t feature_a;  /* index of a feature of a                         */
+    uint32_t feature_b;  /* index of a feature of b                         */
+    double distance;     /* L1 distance of their vectors                    */
+    uint32_t from_a;     /* 1: feature_b is the nearest to feature_a;
+                            0: feature_a is the nearest to feature_b        */
+    uint32_t reserved;
+} phks_correspondence;
+
+/* The score and its minimising pairs: first one per feature of a (from_a =
+ * 1), then one per feature of b (from_a = 0); ties go to the lower index.
+ * out needs room for feature_count(a) + feature_count(b) entries (out may
+ * be NULL to get only *count and *score). Errors as phks_score, and
+ * PHKS_ERROR_BUFFER_TOO_SMALL (then *count is the room needed).
+ * Thread-safe. */
+PHKS_API phks_status phks_match(const phks_signature *a,
+                                const phks_signature *b,
+                                phks_correspondence *out, size_t capacity,
+                                size_t *count, double *score);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* PHKS_H */

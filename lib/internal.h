@@ -1,0 +1,166 @@
+/*
+ * internal.h - declarations shared by the library's own files. Nothing here
+ * is exported; tests reach it through the build's internal dependency.
+ */
+#ifndef PHKS_INTERNAL_H
+#define PHKS_INTERNAL_H
+
+#include "phks.h"
+
+#include <stdarg.h>
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#if defined(__GNUC__) || defined(__clang__)
+#define PHKS_PRINTF(f, a) __attribute__((format(printf, f, a)))
+#else
+#define PHKS_PRINTF(f, a)
+#endif
+
+/* ---- allocation (alloc.c): every library allocation goes through here */
+void *phks_malloc(size_t size);
+void *phks_calloc(size_t count, size_t size); /* zeroed, overflow-checked */
+void *phks_realloc(void *ptr, size_t size);
+void phks_free(void *ptr);
+/* count * size bytes, NULL on overflow or failure. */
+void *phks_malloc_array(size_t count, size_t size);
+void *phks_realloc_array(void *ptr, size_t count, size_t size);
+
+/* ---- errors (error.c) */
+/* Records a printf-style detail for phks_last_error_message() in the
+ * calling thread and returns status, so a failure is one line:
+ *     return phks_fail(PHKS_ERROR_PARSE, "line %zu: ...", line); */
+phks_status phks_fail(phks_status status, const char *fmt, ...)
+    PHKS_PRINTF(2, 3);
+/* The common case of a failed allocation. */
+phks_status phks_fail_oom(const char *what);
+/* Prefixes the current thread's message with "prefix: " (used to add a
+ * file name to a reader's message). */
+void phks_error_prefix(const char *prefix);
+
+/* ---- options (options.c) */
+/* Validates user options (NULL means defaults) into *out. Returns
+ * PHKS_ERROR_INVALID_ARGUMENT with a message naming the bad field. */
+phks_status phks_options_resolve(const phks_options *user, phks_options *out);
+/* Reports progress; returns PHKS_ERROR_CANCELLED when the callback asks. */
+phks_status phks_progress(const phks_options *opt, phks_stage stage,
+                          double fraction);
+
+/* ---- mesh (mesh.c) */
+struct phks_mesh {
+    size_t vertex_count;
+    size_t triangle_count;
+    double *xyz;             /* 3 per vertex, input coordinates          */
+    uint32_t *triangles;     /* 3 per triangle                           */
+    uint32_t *vertex_origin; /* input index of each vertex               */
+    double area;             /* total area                               */
+
+    /* Edges: unique unordered vertex pairs, sorted by (lower, higher). */
+    size_t edge_count;
+    uint32_t *edge_vertices;      /* 2 per edge                          */
+    uint32_t *edge_tri_offset;    /* edge_count + 1 offsets into edge_tris */
+    uint32_t *edge_tris;          /* triangles incident to each edge,
+                                     ascending                            */
+    uint32_t *triangle_edges;     /* 3 per triangle: edge of corners
+                                     (0,1), (1,2), (2,0)                  */
+
+    size_t boundary_edge_count;
+    uint32_t *boundary_edges;     /* 2 per boundary edge                 */
+    size_t component_count;
+    uint32_t *vertex_component;
+};
+
+/* Builds a mesh from arrays the caller keeps ownership of. vertex_origin
+ * may be NULL (identity). Cleans as phks_mesh_create documents. */
+phks_status phks_mesh_build(const double *xyz, size_t vertex_count,
+                            const uint32_t *triangles, size_t triangle_count,
+                            const uint32_t *vertex_origin, phks_mesh **out);
+
+/* ---- readers (read_*.c): parse a whole in-memory file into arrays.
+ * On success *xyz and *tri are library allocations owned by the caller.
+ * Errors carry a message with a line number (text) or byte offset
+ * (binary), without the file name (the loader adds it). */
+typedef struct phks_raw_mesh {
+    double *xyz;
+    size_t vertex_count;
+    uint32_t *triangles;
+    size_t triangle_count;
+    uint32_t *vertex_origin; /* NULL for identity; set by welding readers */
+} phks_raw_mesh;
+
+void phks_raw_mesh_release(phks_raw_mesh *raw);
+phks_status phks_read_off(const char *data, size_t size, phks_raw_mesh *raw);
+phks_status phks_read_obj(const char *data, size_t size, phks_raw_mesh *raw);
+phks_status phks_read_ply(const char *data, size_t size, phks_raw_mesh *raw);
+phks_status phks_read_stl(const char *data, size_t size, phks_raw_mesh *raw);
+
+/* ---- normalisation (normalize.c) */
+/* Scale factor s such that s * positions fit the unit box of `box`. */
+phks_status phks_unit_box_scale(const phks_mesh *mesh, phks_box box,
+                                double *scale);
+/* Per-vertex area: a third of the area of the incident triangles, for
+ * positions scaled by `scale`. mass has vertex_count entries. */
+void phks_vertex_areas(const phks_mesh *mesh, double scale, double *mass);
+
+/* ---- spatial grid (grid.c) */
+typedef struct phks_grid {
+    double origin[3];
+    double cell;           /* cell edge length */
+    size_t dims[3];
+    size_t *cell_start;    /* dims product + 1 offsets into points    */
+    uint32_t *points;      /* point indices sorted by cell           */
+} phks_grid;
+
+/* Buckets n points (xyz, scaled by `scale`) into cells of size `cell`. */
+phks_status phks_grid_build(const double *xyz, size_t n, double scale,
+                            double cell, phks_grid *grid);
+void phks_grid_release(phks_grid *grid);
+
+/* ---- sparse symmetric operator (laplacian.c) */
+/* The symmetric matrix B = Mh^-1/2 S Mh^-1/2 in CSR form (both triangles
+ * stored, diagonal included), where Mh is the mass diagonal (area, or
+ * area times kernel density for the random-walk operator). The eigenpairs
+ * of B give those of S phi = lambda Mh phi by phi = Mh^-1/2 x. */
+typedef struct phks_operator_matrix {
+    size_t n;
+    size_t *row_start;   /* n + 1 */
+    uint32_t *col;
+    double *val;
+    double *mass;        /* Mh, n entries */
+    double norm_bound;   /* Gershgorin bound on |B| */
+} phks_operator_matrix;
+
+phks_status phks_operator_build(const phks_mesh *mesh, const phks_options *opt,
+                                phks_operator_matrix *op);
+void phks_operator_release(phks_operator_matrix *op);
+/* Y = B X for a block of k vectors stored row-major (X[i*k + j] is entry i
+ * of vector j), using `threads` workers. */
+void phks_operator_apply(const phks_operator_matrix *op, const double *x,
+                         double *y, size_t k, unsigned threads);
+
+/* ---- eigen-solvers (eigen_*.c): the k smallest eigenpairs of op's B.
+ * values ascending (k), vectors column-major n x k, orthonormal in the
+ * plain inner product. */
+phks_status phks_eigen_lanczos(const phks_operator_matrix *op, size_t k,
+                               const phks_options *opt, double *values,
+                               double *vectors);
+phks_status phks_eigen_arpack(const phks_operator_matrix *op, size_t k,
+                              const phks_options *opt, double *values,
+                              double *vectors);
+phks_status phks_eigen_dense(const phks_operator_matrix *op, size_t k,
+                             const phks_options *opt, double *values,
+                             double *vectors);
+
+/* ---- threads (parallel.c) */
+/* Calls fn(ctx, begin, end) over [0, n) split into `threads` contiguous
+ * chunks on worker threads (falls back to the calling thread alone). */
+typedef void (*phks_range_fn)(void *ctx, size_t begin, size_t end);
+void phks_parallel_for(size_t n, unsigned threads, phks_range_fn fn, void *ctx);
+/* threads option resolved: 0 means the number of online CPUs. */
+unsigned phks_thread_count(const phks_options *opt);
+
+/* ---- checksum (crc32.c via zlib) */
+uint32_t phks_crc32(const void *data, size_t size);
+
+#endif /* PHKS_INTERNAL_H */

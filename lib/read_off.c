@@ -1,0 +1,2 @@
+/* placeholder: being written */
+typedef int phks_placeholder_read_off;
