@@ -59,7 +59,16 @@ phks_status phks_fail_oom(const char *what)
 
 void phks_error_prefix(const char *prefix)
 {
-    char old[MESSAGE_SIZE];
-    memcpy(old, message, sizeof old);
-    snprintf(message, sizeof message, "%s: %s", prefix, old);
+    /* Shift the old message right and put "prefix: " in front, cutting the
+     * tail when the whole does not fit. */
+    size_t plen = strlen(prefix), mlen = strlen(message);
+    if (plen + 2 >= sizeof message)
+        plen = sizeof message - 3;
+    if (plen + 2 + mlen >= sizeof message)
+        mlen = sizeof message - 1 - plen - 2;
+    memmove(message + plen + 2, message, mlen);
+    memcpy(message, prefix, plen);
+    message[plen] = ':';
+    message[plen + 1] = ' ';
+    message[plen + 2 + mlen] = '\0';
 }

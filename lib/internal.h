@@ -18,6 +18,8 @@
 #define PHKS_PRINTF(f, a)
 #endif
 
+#define PHKS_PI 3.14159265358979323846
+
 /* ---- allocation (alloc.c): every library allocation goes through here */
 void *phks_malloc(size_t size);
 void *phks_calloc(size_t count, size_t size); /* zeroed, overflow-checked */
@@ -151,6 +153,18 @@ phks_status phks_eigen_arpack(const phks_operator_matrix *op, size_t k,
 phks_status phks_eigen_dense(const phks_operator_matrix *op, size_t k,
                              const phks_options *opt, double *values,
                              double *vectors);
+
+/* ---- spectrum (spectrum.c, hks.c) */
+struct phks_spectrum {
+    size_t n, count;
+    double *values;       /* count, ascending                         */
+    double *vectors;      /* n x count column-major, Mh-orthonormal   */
+    double *mass;         /* Mh                                       */
+    phks_options options; /* resolved options it was computed with    */
+};
+
+/* HKS_t at one vertex: sum_i exp(-t lambda_i) phi_i(v)^2. */
+double phks_hks_at(const phks_spectrum *spec, double t, size_t v);
 
 /* ---- threads (parallel.c) */
 /* Calls fn(ctx, begin, end) over [0, n) split into `threads` contiguous

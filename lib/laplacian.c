@@ -1,2 +1,231 @@
-/* placeholder: being written */
-typedef int phks_placeholder_laplacian;
+/*
+ * laplacian.c - the Belkin-Sun-Wang mesh-Laplacian in symmetric form.
+ *
+ * With h = tau, c = 1 / (4 pi h^2), A the vertex areas and
+ * W(w,p) = exp(-|w-p|^2 / 4h) cut at radius r:
+ *     S = c (diag(K 1) - K),  K_wp = A_w A_p W(w,p)  (w != p)
+ * and the generalised problem S phi = lambda Mh phi is turned into the
+ * standard one B x = lambda x with B = Mh^-1/2 S Mh^-1/2, phi = Mh^-1/2 x:
+ *     B_wp = -c K_wp / sqrt(Mh_w Mh_p),   B_ww = c (K 1)_w / Mh_w.
+ * Mh = A for the paper's operator; Mh = A D for the random-walk one, with
+ * D_w = (1 / 4 pi h) sum_k A_k W(w,k) (k = w included) as in appendix B.
+ * B is symmetric positive semi-definite, so solvers need no factorisation.
+ */
+#include "internal.h"
+
+#include <math.h>
+#include <string.h>
+
+/* Rows are built in batches so that the progress callback can cancel. */
+#define ROW_BATCHES 16
+
+typedef struct {
+    const phks_grid *grid;
+    const double *xyz;
+    double scale;
+    double radius2;   /* squared cut-off radius */
+    double inv4h;     /* 1 / 4h */
+    const double *area;
+    size_t *row_start;
+    uint32_t *col;
+    double *val;      /* on the fill pass: A_p W(w,p) */
+    double *density;  /* sum_p A_p W(w,p), p = w included */
+    bool fill;
+} build_ctx;
+
+/* Visits the neighbours of vertex w within the radius: counts them (first
+ * pass) or stores them (second pass), and sums the kernel density. */
+static void scan_row(const build_ctx *b, size_t w)
+{
+    const phks_grid *g = b->grid;
+    double p[3];
+    size_t c[3];
+    for (int d = 0; d < 3; d++) {
+        p[d] = b->xyz[3 * w + d] * b->scale;
+        double x = floor((p[d] - g->origin[d]) / g->cell);
+        c[d] = x < 0 ? 0 : x >= (double)g->dims[d] ? g->dims[d] - 1 : (size_t)x;
+    }
+    size_t count = 0, out = b->fill ? b->row_start[w] : 0;
+    double density = 0;
+    for (size_t z = c[2] ? c[2] - 1 : 0; z <= c[2] + 1 && z < g->dims[2]; z++)
+        for (size_t y = c[1] ? c[1] - 1 : 0; y <= c[1] + 1 && y < g->dims[1]; y++)
+            for (size_t x = c[0] ? c[0] - 1 : 0; x <= c[0] + 1 && x < g->dims[0]; x++) {
+                size_t cell = (z * g->dims[1] + y) * g->dims[0] + x;
+                for (size_t i = g->cell_start[cell]; i < g->cell_start[cell + 1]; i++) {
+                    uint32_t q = g->points[i];
+                    const double *r = b->xyz + 3 * (size_t)q;
+                    double dx = r[0] * b->scale - p[0], dy = r[1] * b->scale - p[1],
+                           dz = r[2] * b->scale - p[2];
+                    double d2 = dx * dx + dy * dy + dz * dz;
+                    if (d2 >= b->radius2 && q != w)
+                        continue;
+                    count++;
+                    if (!b->fill)
+                        continue;
+                    double aw = b->area[q] * exp(-d2 * b->inv4h);
+                    density += aw;
+                    b->col[out] = q;
+                    b->val[out] = aw;
+                    out++;
+                }
+            }
+    if (b->fill)
+        b->density[w] = density;
+    else
+        b->row_start[w + 1] = count;
+}
+
+typedef struct {
+    const build_ctx *b;
+    size_t first;
+} batch_ctx;
+
+static void scan_batch(void *ctx, size_t begin, size_t end)
+{
+    const batch_ctx *batch = ctx;
+    for (size_t w = begin; w < end; w++)
+        scan_row(batch->b, batch->first + w);
+}
+
+/* One pass over all rows in batches, reporting progress between batches. */
+static phks_status scan_all(const build_ctx *b, size_t n, unsigned threads,
+                            const phks_options *opt, double done, double span)
+{
+    for (size_t k = 0; k < ROW_BATCHES; k++) {
+        size_t lo = n * k / ROW_BATCHES, hi = n * (k + 1) / ROW_BATCHES;
+        phks_status st = phks_progress(opt, PHKS_STAGE_OPERATOR,
+                                       done + span * (double)k / ROW_BATCHES);
+        if (st != PHKS_OK)
+            return st;
+        batch_ctx batch = {b, lo};
+        phks_parallel_for(hi - lo, threads, scan_batch, &batch);
+    }
+    return PHKS_OK;
+}
+
+void phks_operator_release(phks_operator_matrix *op)
+{
+    phks_free(op->row_start);
+    phks_free(op->col);
+    phks_free(op->val);
+    phks_free(op->mass);
+    memset(op, 0, sizeof *op);
+}
+
+/* Turns the stored A_p W(w,p) into entries of B (see the top comment). */
+static void finish_values(phks_operator_matrix *op, const double *area,
+                          const double *density, double c)
+{
+    double bound = 0;
+    for (size_t w = 0; w < op->n; w++) {
+        double diag = 0, off = 0;
+        size_t self = op->row_start[w];
+        for (size_t i = op->row_start[w]; i < op->row_start[w + 1]; i++) {
+            uint32_t p = op->col[i];
+            if (p == w) {
+                self = i;
+                continue;
+            }
+            double k = area[w] * op->val[i]; /* K_wp = A_w A_p W */
+            diag += k;
+            op->val[i] = -c * k / sqrt(op->mass[w] * op->mass[p]);
+            off += fabs(op->val[i]);
+        }
+        op->val[self] = c * diag / op->mass[w];
+        bound = fmax(bound, op->val[self] + off);
+    }
+    op->norm_bound = bound;
+}
+
+phks_status phks_operator_build(const phks_mesh *mesh, const phks_options *opt,
+                                phks_operator_matrix *op)
+{
+    memset(op, 0, sizeof *op);
+    size_t n = mesh->vertex_count;
+    double scale, h = opt->tau;
+    phks_status st = phks_unit_box_scale(mesh, (phks_box)opt->box, &scale);
+    if (st != PHKS_OK)
+        return st;
+    double radius = opt->cutoff * sqrt(4 * h);
+    double *area = phks_malloc_array(n, sizeof *area);
+    double *density = phks_malloc_array(n, sizeof *density);
+    phks_grid grid = {0};
+    op->n = n;
+    op->row_start = phks_calloc(n + 1, sizeof *op->row_start);
+    op->mass = phks_malloc_array(n, sizeof *op->mass);
+    if (!area || !density || !op->row_start || !op->mass) {
+        st = phks_fail_oom("operator");
+        goto done;
+    }
+    phks_vertex_areas(mesh, scale, area);
+    st = phks_grid_build(mesh->xyz, n, scale, radius, &grid);
+    if (st != PHKS_OK)
+        goto done;
+
+    build_ctx b = {&grid, mesh->xyz, scale, radius * radius, 1 / (4 * h), area,
+                   op->row_start, NULL, NULL, density, false};
+    unsigned threads = phks_thread_count(opt);
+    st = scan_all(&b, n, threads, opt, 0, 0.3);
+    if (st != PHKS_OK)
+        goto done;
+    for (size_t w = 0; w < n; w++)
+        op->row_start[w + 1] += op->row_start[w];
+    size_t nnz = op->row_start[n];
+    op->col = phks_malloc_array(nnz, sizeof *op->col);
+    op->val = phks_malloc_array(nnz, sizeof *op->val);
+    if (!op->col || !op->val) {
+        st = phks_fail_oom("operator matrix");
+        goto done;
+    }
+    b.col = op->col;
+    b.val = op->val;
+    b.fill = true;
+    st = scan_all(&b, n, threads, opt, 0.3, 0.7);
+    if (st != PHKS_OK)
+        goto done;
+
+    for (size_t w = 0; w < n; w++)
+        op->mass[w] = opt->operator_kind == PHKS_OPERATOR_RANDOM_WALK
+                          ? area[w] * density[w] / (4 * PHKS_PI * h)
+                          : area[w];
+    finish_values(op, area, density, 1 / (4 * PHKS_PI * h * h));
+    st = phks_progress(opt, PHKS_STAGE_OPERATOR, 1);
+done:
+    phks_grid_release(&grid);
+    phks_free(area);
+    phks_free(density);
+    if (st != PHKS_OK)
+        phks_operator_release(op);
+    return st;
+}
+
+typedef struct {
+    const phks_operator_matrix *op;
+    const double *x;
+    double *y;
+    size_t k;
+} apply_ctx;
+
+static void apply_rows(void *ctx, size_t begin, size_t end)
+{
+    const apply_ctx *a = ctx;
+    const size_t k = a->k;
+    for (size_t w = begin; w < end; w++) {
+        double *y = a->y + w * k;
+        for (size_t j = 0; j < k; j++)
+            y[j] = 0;
+        for (size_t i = a->op->row_start[w]; i < a->op->row_start[w + 1]; i++) {
+            const double v = a->op->val[i];
+            const double *x = a->x + (size_t)a->op->col[i] * k;
+            for (size_t j = 0; j < k; j++)
+                y[j] += v * x[j];
+        }
+    }
+}
+
+void phks_operator_apply(const phks_operator_matrix *op, const double *x,
+                         double *y, size_t k, unsigned threads)
+{
+    apply_ctx a = {op, x, y, k};
+    phks_parallel_for(op->n, threads, apply_rows, &a);
+}
