@@ -25,17 +25,20 @@
 #define BREAKDOWN 1e-12
 
 typedef struct {
-    size_t n, k, b, cap;    /* cap: basis columns with room for one more block */
-    double *v;              /* n x cap, column-major basis                   */
-    double *t;              /* cap x cap, V^T B V                            */
+    size_t n, k, b;
+    size_t cap;             /* most basis columns ever allowed               */
+    size_t room;            /* basis columns allocated so far                */
+    double *v;              /* n x room, column-major basis                  */
+    double *t;              /* V^T B V, upper triangle packed by columns:
+                               column j holds rows 0..j at j (j + 1) / 2     */
     double *w;              /* n x b residual block                          */
     double *xr, *yr;        /* n x b row-major blocks for the operator       */
-    double *c;              /* cap x b projection coefficients               */
+    double *c;              /* room x b projection coefficients              */
     double *tau;            /* b Householder scalars                         */
-    double *ritz;           /* cap x k Ritz vectors of T                     */
-    double *theta;          /* cap Ritz values                               */
-    lapack_int *support;
-    double *tcopy;          /* cap x cap scratch for dsyevr                  */
+    double *ritz;           /* room x k Ritz vectors of T                    */
+    double *theta;          /* room Ritz values                              */
+    lapack_int *support;    /* 2 room, for dsyevr                            */
+    double *tfull;          /* room x room copy of T for dsyevr              */
 } lanczos;
 
 static void release(lanczos *L)
@@ -50,27 +53,51 @@ static void release(lanczos *L)
     phks_free(L->ritz);
     phks_free(L->theta);
     phks_free(L->support);
-    phks_free(L->tcopy);
+    phks_free(L->tfull);
+}
+
+#define GROW(field, count)                                                   \
+    do {                                                                     \
+        void *p_ = phks_realloc_array(L->field, (count), sizeof *L->field);  \
+        if (!p_)                                                             \
+            return phks_fail_oom("Lanczos workspace");                       \
+        L->field = p_;                                                       \
+    } while (0)
+
+/* Makes room for `columns` basis vectors. The basis grows geometrically:
+ * how many vectors convergence needs is only known at the end, and
+ * allocating the worst case up front would cost several times the memory
+ * that typical meshes use. */
+static phks_status reserve(lanczos *L, size_t columns)
+{
+    if (columns <= L->room)
+        return PHKS_OK;
+    size_t room = L->room * 2 > columns ? L->room * 2 : columns;
+    room = room < L->cap ? room : L->cap;
+    room -= room % L->b;
+    GROW(v, L->n * room);
+    GROW(t, room * (room + 1) / 2);
+    GROW(c, room * L->b);
+    GROW(ritz, room * L->k);
+    GROW(theta, room);
+    GROW(support, 2 * room);
+    GROW(tfull, room * room);
+    memset(L->t + L->room * (L->room + 1) / 2, 0,
+           (room * (room + 1) / 2 - L->room * (L->room + 1) / 2) * sizeof *L->t);
+    L->room = room;
+    return PHKS_OK;
 }
 
 static phks_status allocate(lanczos *L)
 {
-    size_t n = L->n, cap = L->cap, b = L->b;
-    L->v = phks_malloc_array(n, cap * sizeof(double));
-    L->t = phks_calloc(cap * cap, sizeof(double));
+    size_t n = L->n, b = L->b;
     L->w = phks_malloc_array(n, b * sizeof(double));
     L->xr = phks_malloc_array(n, b * sizeof(double));
     L->yr = phks_malloc_array(n, b * sizeof(double));
-    L->c = phks_malloc_array(cap, b * sizeof(double));
     L->tau = phks_malloc_array(b, sizeof(double));
-    L->ritz = phks_malloc_array(cap, L->k * sizeof(double));
-    L->theta = phks_malloc_array(cap, sizeof(double));
-    L->support = phks_malloc_array(2 * cap, sizeof(lapack_int));
-    L->tcopy = phks_malloc_array(cap, cap * sizeof(double));
-    if (!L->v || !L->t || !L->w || !L->xr || !L->yr || !L->c || !L->tau ||
-        !L->ritz || !L->theta || !L->support || !L->tcopy)
+    if (!L->w || !L->xr || !L->yr || !L->tau)
         return phks_fail_oom("Lanczos workspace");
-    return PHKS_OK;
+    return reserve(L, 3 * L->k + 8 * b < L->cap ? 3 * L->k + 8 * b : L->cap);
 }
 
 /* A fixed pseudo-random block, so that every run starts alike. */
@@ -84,8 +111,9 @@ static void random_block(double *w, size_t n, size_t b, uint64_t seed)
 }
 
 /* W -= V[:, 0:m] (V[:, 0:m]^T W), twice (classical Gram-Schmidt with one
- * re-orthogonalisation: "twice is enough"). Adds the coefficients to
- * t[0:m, col:col+b] when col is given. */
+ * re-orthogonalisation: "twice is enough"). When col is given, W is B times
+ * the basis block at columns [col, col + b), and the coefficients on and
+ * above the diagonal go to T. */
 static void orthogonalise(lanczos *L, size_t m, double *w, long col)
 {
     size_t n = L->n, b = L->b;
@@ -97,9 +125,12 @@ static void orthogonalise(lanczos *L, size_t m, double *w, long col)
         cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)n, (int)b,
                     (int)m, -1.0, L->v, (int)n, L->c, (int)m, 1.0, w, (int)n);
         if (col >= 0)
-            for (size_t j = 0; j < b; j++)
-                for (size_t i = 0; i < m; i++)
-                    L->t[((size_t)col + j) * L->cap + i] += L->c[j * m + i];
+            for (size_t j = 0; j < b; j++) {
+                size_t column = (size_t)col + j;
+                double *t = L->t + column * (column + 1) / 2;
+                for (size_t i = 0; i <= column; i++)
+                    t[i] += L->c[j * m + i];
+            }
     }
 }
 
@@ -178,12 +209,12 @@ static void apply_block(const phks_operator_matrix *op, lanczos *L,
  * block. */
 static phks_status ritz(lanczos *L, size_t m, const double *r, double *worst)
 {
-    size_t cap = L->cap, k = L->k, b = L->b;
+    size_t k = L->k, b = L->b;
     for (size_t j = 0; j < m; j++)
-        memcpy(L->tcopy + j * m, L->t + j * cap, (j + 1) * sizeof(double));
+        memcpy(L->tfull + j * m, L->t + j * (j + 1) / 2, (j + 1) * sizeof(double));
     lapack_int found = 0;
     lapack_int info = LAPACKE_dsyevr(LAPACK_COL_MAJOR, 'V', 'I', 'U',
-                                     (lapack_int)m, L->tcopy, (lapack_int)m, 0,
+                                     (lapack_int)m, L->tfull, (lapack_int)m, 0,
                                      0, 1, (lapack_int)k, 0, &found, L->theta,
                                      L->ritz, (lapack_int)m, L->support);
     if (info != 0 || (size_t)found != k)
@@ -209,12 +240,14 @@ phks_status phks_eigen_lanczos(const phks_operator_matrix *op, size_t k,
                                double *vectors)
 {
     size_t n = op->n, b = BLOCK;
-    /* The Krylov space needs room well beyond k; when that is most of the
-     * space, the dense solve is both exact and cheaper. */
+    /* The Krylov space needs room well beyond k (about 3k on real meshes,
+     * up to 12k when the wanted eigenvalues are a tiny fraction of |B|).
+     * When n leaves too little room, the dense solve is exact and cheap. */
     size_t cap = 12 * k + 8 * b;
-    if (cap + 2 * b > n)
+    if (cap > n - n % b - b)
+        cap = n - n % b - b;
+    if (n < 4 * b || cap < k + 4 * b)
         return phks_eigen_dense(op, k, opt, values, vectors);
-    cap -= cap % b;
     lanczos L = {.n = n, .k = k, .b = b, .cap = cap};
     phks_status st = allocate(&L);
     if (st != PHKS_OK) {
@@ -247,6 +280,9 @@ phks_status phks_eigen_lanczos(const phks_operator_matrix *op, size_t k,
                            worst / norm, opt->tolerance, m);
             break;
         }
+        st = reserve(&L, m + b);
+        if (st != PHKS_OK)
+            break;
         memcpy(L.v + m * n, L.w, n * b * sizeof(double));
         m += b;
         st = phks_progress(opt, PHKS_STAGE_EIGEN,

@@ -166,6 +166,24 @@ struct phks_spectrum {
 /* HKS_t at one vertex: sum_i exp(-t lambda_i) phi_i(v)^2. */
 double phks_hks_at(const phks_spectrum *spec, double t, size_t v);
 
+/* ---- signature (signature.c, signature_codec.c, score.c) */
+struct phks_signature {
+    phks_options options;  /* what shaped the numbers; see
+                              phks_signature_compatible                 */
+    size_t count, length;  /* features, vector length (scale_count)    */
+    uint32_t *vertex;      /* count                                     */
+    double *position;      /* 3 * count, input coordinates              */
+    double *persistence;   /* count; INFINITY when unpaired             */
+    double *vectors;       /* count x length, row-major                 */
+};
+
+/* An empty signature with room for count features of length values. */
+phks_status phks_signature_alloc(size_t count, size_t length,
+                                 phks_signature **out);
+/* True when two option sets give comparable signatures: every field that
+ * changes the numbers is equal (not the solver, threads or callbacks). */
+bool phks_options_comparable(const phks_options *a, const phks_options *b);
+
 /* ---- threads (parallel.c) */
 /* Calls fn(ctx, begin, end) over [0, n) split into `threads` contiguous
  * chunks on worker threads (falls back to the calling thread alone). */

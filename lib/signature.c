@@ -1,2 +1,182 @@
-/* placeholder: being written */
-typedef int phks_placeholder_signature;
+/*
+ * signature.c - the pipeline's last steps: the persistent maxima of HKS at
+ * the feature scale become the feature points, and each gets the vector of
+ * its HKS values at the time scales.
+ */
+#include "internal.h"
+
+#include <math.h>
+#include <string.h>
+
+void phks_signature_free(phks_signature *sig)
+{
+    if (!sig)
+        return;
+    phks_free(sig->vertex);
+    phks_free(sig->position);
+    phks_free(sig->persistence);
+    phks_free(sig->vectors);
+    phks_free(sig);
+}
+
+phks_status phks_signature_alloc(size_t count, size_t length,
+                                 phks_signature **out)
+{
+    phks_signature *sig = phks_calloc(1, sizeof *sig);
+    if (!sig)
+        return phks_fail_oom("signature");
+    sig->count = count;
+    sig->length = length;
+    sig->vertex = phks_malloc_array(count, sizeof *sig->vertex);
+    sig->position = phks_malloc_array(count, 3 * sizeof *sig->position);
+    sig->persistence = phks_malloc_array(count, sizeof *sig->persistence);
+    sig->vectors = phks_malloc_array(count, length * sizeof *sig->vectors);
+    if (!sig->vertex || !sig->position || !sig->persistence || !sig->vectors) {
+        phks_signature_free(sig);
+        return phks_fail_oom("signature");
+    }
+    *out = sig;
+    return PHKS_OK;
+}
+
+bool phks_options_comparable(const phks_options *a, const phks_options *b)
+{
+    if (a->tau != b->tau || a->cutoff != b->cutoff ||
+        a->eigen_count != b->eigen_count || a->feature_count != b->feature_count ||
+        a->scale_count != b->scale_count || a->feature_scale != b->feature_scale ||
+        a->operator_kind != b->operator_kind || a->box != b->box)
+        return false;
+    for (uint32_t i = 0; i < a->scale_count; i++)
+        if (a->scales[i] != b->scales[i])
+            return false;
+    return true;
+}
+
+/* The spectrum must come from the same operator as the options describe;
+ * anything else would silently mix incomparable numbers. */
+static phks_status check_spectrum(const phks_mesh *mesh,
+                                  const phks_spectrum *spec,
+                                  const phks_options *opt)
+{
+    if (spec->n != mesh->vertex_count)
+        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+                         "phks_signature_from_spectrum: the spectrum has %zu "
+                         "vertices, the mesh %zu",
+                         spec->n, mesh->vertex_count);
+    const phks_options *s = &spec->options;
+    if (s->tau != opt->tau || s->cutoff != opt->cutoff ||
+        s->eigen_count != opt->eigen_count ||
+        s->operator_kind != opt->operator_kind || s->box != opt->box)
+        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+                         "phks_signature_from_spectrum: the options differ "
+                         "from those the spectrum was computed with");
+    return PHKS_OK;
+}
+
+phks_status phks_signature_from_spectrum(const phks_mesh *mesh,
+                                         const phks_spectrum *spec,
+                                         const phks_options *options,
+                                         phks_signature **out)
+{
+    if (out)
+        *out = NULL;
+    if (!mesh || !spec || !out)
+        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+                         "phks_signature_from_spectrum: NULL argument");
+    phks_options opt;
+    phks_status st = phks_options_resolve(options, &opt);
+    if (st == PHKS_OK)
+        st = check_spectrum(mesh, spec, &opt);
+    if (st == PHKS_OK)
+        st = phks_progress(&opt, PHKS_STAGE_HKS, 0);
+    if (st != PHKS_OK)
+        return st;
+
+    size_t n = mesh->vertex_count, wanted = opt.feature_count;
+    if (wanted > mesh->triangle_count)
+        wanted = mesh->triangle_count;
+    double *h = phks_malloc_array(n, sizeof *h);
+    phks_maximum *maxima = phks_malloc_array(wanted, sizeof *maxima);
+    phks_signature *sig = NULL;
+    size_t found = 0;
+    if (!h || !maxima) {
+        st = phks_fail_oom("signature");
+        goto done;
+    }
+    st = phks_spectrum_hks(spec, opt.feature_scale * opt.tau, h);
+    if (st == PHKS_OK)
+        st = phks_progress(&opt, PHKS_STAGE_PERSISTENCE, 0);
+    if (st == PHKS_OK)
+        st = phks_persistent_maxima(mesh, h, wanted, 0, maxima, &found, NULL);
+    if (st == PHKS_OK)
+        st = phks_signature_alloc(found, opt.scale_count, &sig);
+    if (st != PHKS_OK)
+        goto done;
+    sig->options = opt;
+    sig->options.progress = NULL;
+    sig->options.progress_user = NULL;
+    for (size_t i = 0; i < found; i++) {
+        uint32_t v = maxima[i].vertex;
+        sig->vertex[i] = v;
+        memcpy(sig->position + 3 * i, mesh->xyz + 3 * (size_t)v, 3 * sizeof(double));
+        sig->persistence[i] = maxima[i].persistence;
+        for (size_t s = 0; s < opt.scale_count; s++)
+            sig->vectors[i * opt.scale_count + s] =
+                phks_hks_at(spec, opt.scales[s] * opt.tau, v);
+    }
+    st = phks_progress(&opt, PHKS_STAGE_PERSISTENCE, 1);
+done:
+    phks_free(h);
+    phks_free(maxima);
+    if (st != PHKS_OK) {
+        phks_signature_free(sig);
+        return st;
+    }
+    *out = sig;
+    return PHKS_OK;
+}
+
+phks_status phks_signature_compute(const phks_mesh *mesh,
+                                   const phks_options *options,
+                                   phks_signature **out)
+{
+    if (out)
+        *out = NULL;
+    if (!mesh || !out)
+        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+                         "phks_signature_compute: NULL argument");
+    phks_spectrum *spec = NULL;
+    phks_status st = phks_spectrum_compute(mesh, options, &spec);
+    if (st == PHKS_OK)
+        st = phks_signature_from_spectrum(mesh, spec, options, out);
+    phks_spectrum_free(spec);
+    return st;
+}
+
+size_t phks_signature_feature_count(const phks_signature *s) { return s ? s->count : 0; }
+size_t phks_signature_vector_length(const phks_signature *s) { return s ? s->length : 0; }
+
+uint32_t phks_signature_feature_vertex(const phks_signature *s, size_t i)
+{
+    return s && i < s->count ? s->vertex[i] : UINT32_MAX;
+}
+
+phks_status phks_signature_feature_position(const phks_signature *s, size_t i,
+                                            double xyz[3])
+{
+    if (!s || !xyz || i >= s->count)
+        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+                         "phks_signature_feature_position: no feature %zu", i);
+    memcpy(xyz, s->position + 3 * i, 3 * sizeof(double));
+    return PHKS_OK;
+}
+
+double phks_signature_feature_persistence(const phks_signature *s, size_t i)
+{
+    return s && i < s->count ? s->persistence[i] : NAN;
+}
+
+const double *phks_signature_feature_vector(const phks_signature *s, size_t i)
+{
+    return s && i < s->count ? s->vectors + i * s->length : NULL;
+}
