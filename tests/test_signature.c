@@ -1,0 +1,253 @@
+/* test_signature.c - the whole pipeline on generated creatures: invariance
+ * to rigid motion and scale, poses against kinds, repeatability, the
+ * spectrum path, progress and cancellation. Small meshes (resolution 1,
+ * 500-1300 vertices) keep it fast. */
+#include "testutil.h"
+#include "shapes.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+static phks_mesh *creature(unsigned kind, unsigned pose, const double *rotation,
+                           double scale)
+{
+    double angles[SHAPE_MAX_JOINTS];
+    shape_mesh s;
+    shape_creature_pose(kind, pose, angles);
+    ck_assert_int_eq(shape_creature(kind, angles, 1, &s), 0);
+    if (rotation) {
+        const double shift[3] = {3.5, -20, 7};
+        ck_assert_int_eq(shape_transform(&s, rotation, scale, shift), 0);
+    }
+    phks_mesh *m;
+    ck_assert_int_eq(phks_mesh_create(s.xyz, s.vertex_count, s.triangles,
+                                      s.triangle_count, &m),
+                     PHKS_OK);
+    shape_mesh_free(&s);
+    return m;
+}
+
+static phks_signature *signature(const phks_mesh *m, const phks_options *o)
+{
+    phks_signature *sig;
+    phks_status st = phks_signature_compute(m, o, &sig);
+    ck_assert_msg(st == PHKS_OK, "%s", phks_last_error_message());
+    return sig;
+}
+
+/* After any rotation, translation and uniform scale of the input, every
+ * feature vector has a twin in the other signature equal to 1e-7
+ * relative. (Symmetric shapes have mirror-twin vertices whose HKS is equal
+ * up to rounding, so which twin is picked may differ: the vectors are what
+ * must not.) Where the same vertex is picked, its position is the moved
+ * one. */
+START_TEST(invariant_to_rigid_motion_and_scale)
+{
+    unsigned kind = (unsigned)_i;
+    phks_mesh *m = creature(kind, 1, NULL, 1);
+    phks_signature *a = signature(m, NULL);
+    double rotation[9];
+    shape_random_rotation(100 + kind, rotation);
+    phks_mesh *moved = creature(kind, 1, rotation, 37.5);
+    phks_signature *b = signature(moved, NULL);
+    size_t n = phks_signature_feature_count(a), count;
+    ck_assert_uint_eq(n, phks_signature_feature_count(b));
+    phks_correspondence c[64];
+    double score;
+    ck_assert_int_eq(phks_match(a, b, c, 64, &count, &score), PHKS_OK);
+    for (size_t i = 0; i < count; i++) {
+        const double *va = phks_signature_feature_vector(a, c[i].feature_a);
+        double norm = 0;
+        for (size_t s = 0; s < phks_signature_vector_length(a); s++)
+            norm += fabs(va[s]);
+        ck_assert_double_le(c[i].distance, 1e-7 * norm);
+        if (phks_signature_feature_vertex(a, c[i].feature_a) !=
+            phks_signature_feature_vertex(b, c[i].feature_b))
+            continue;
+        double pa[3], pb[3];
+        phks_signature_feature_position(a, c[i].feature_a, pa);
+        phks_signature_feature_position(b, c[i].feature_b, pb);
+        for (int r = 0; r < 3; r++) {
+            double x = 37.5 * (rotation[3 * r] * pa[0] + rotation[3 * r + 1] * pa[1] +
+                               rotation[3 * r + 2] * pa[2]);
+            ck_assert_double_eq_tol(pb[r], x + (r == 0 ? 3.5 : r == 1 ? -20 : 7),
+                                    1e-9 * 37.5);
+        }
+    }
+    phks_signature_free(a);
+    phks_signature_free(b);
+    phks_mesh_free(m);
+    phks_mesh_free(moved);
+}
+END_TEST
+
+/* The method's promise on generated shapes: another pose of the same kind
+ * scores at least four times closer than any other kind. */
+START_TEST(poses_score_far_closer_than_kinds)
+{
+    enum { K = SHAPE_KIND_COUNT };
+    phks_signature *p1[K], *p2[K];
+    for (unsigned k = 0; k < K; k++) {
+        phks_mesh *a = creature(k, 1, NULL, 1), *b = creature(k, 2, NULL, 1);
+        p1[k] = signature(a, NULL);
+        p2[k] = signature(b, NULL);
+        phks_mesh_free(a);
+        phks_mesh_free(b);
+    }
+    for (unsigned k = 0; k < K; k++) {
+        double same, other = INFINITY, s;
+        ck_assert_int_eq(phks_score(p1[k], p2[k], &same), PHKS_OK);
+        for (unsigned j = 0; j < K; j++)
+            if (j != k) {
+                ck_assert_int_eq(phks_score(p1[k], p2[j], &s), PHKS_OK);
+                other = fmin(other, s);
+                ck_assert_int_eq(phks_score(p1[k], p1[j], &s), PHKS_OK);
+                other = fmin(other, s);
+            }
+        ck_assert_msg(same * 4 < other, "%s: same kind %g, nearest other %g",
+                      shape_creature_name(k), same, other);
+    }
+    for (unsigned k = 0; k < K; k++) {
+        phks_signature_free(p1[k]);
+        phks_signature_free(p2[k]);
+    }
+}
+END_TEST
+
+START_TEST(repeatable_and_equal_through_the_spectrum)
+{
+    phks_mesh *m = creature(SHAPE_HAND, 3, NULL, 1);
+    phks_signature *a = signature(m, NULL), *b = signature(m, NULL);
+    size_t size_a = phks_signature_encoded_size(a);
+    unsigned char blob_a[8192], blob_b[8192];
+    size_t got;
+    ck_assert_uint_le(size_a, sizeof blob_a);
+    ck_assert_int_eq(phks_signature_encode(a, blob_a, sizeof blob_a, &got), PHKS_OK);
+    ck_assert_int_eq(phks_signature_encode(b, blob_b, sizeof blob_b, &got), PHKS_OK);
+    ck_assert_mem_eq(blob_a, blob_b, size_a); /* bit-identical */
+
+    phks_spectrum *spec;
+    phks_signature *c;
+    ck_assert_int_eq(phks_spectrum_compute(m, NULL, &spec), PHKS_OK);
+    ck_assert_int_eq(phks_signature_from_spectrum(m, spec, NULL, &c), PHKS_OK);
+    ck_assert_int_eq(phks_signature_encode(c, blob_b, sizeof blob_b, &got), PHKS_OK);
+    ck_assert_mem_eq(blob_a, blob_b, size_a);
+
+    /* Options that do not match the spectrum are refused. */
+    phks_options o;
+    phks_options_init(&o);
+    o.operator_kind = PHKS_OPERATOR_RANDOM_WALK;
+    phks_signature *d = (phks_signature *)1;
+    ck_assert_int_eq(phks_signature_from_spectrum(m, spec, &o, &d),
+                     PHKS_ERROR_INVALID_ARGUMENT);
+    ck_assert_ptr_null(d);
+    /* ... and a spectrum of another mesh too. */
+    phks_mesh *other = creature(SHAPE_PLIER, 1, NULL, 1);
+    ck_assert_int_eq(phks_signature_from_spectrum(other, spec, NULL, &d),
+                     PHKS_ERROR_INVALID_ARGUMENT);
+    phks_mesh_free(other);
+    phks_spectrum_free(spec);
+    phks_signature_free(a);
+    phks_signature_free(b);
+    phks_signature_free(c);
+    phks_mesh_free(m);
+}
+END_TEST
+
+/* Features: persistent maxima of HKS at the feature scale, most persistent
+ * first, each vector's first entry (t = 5 tau) equal to that HKS. */
+START_TEST(features_are_the_persistent_maxima)
+{
+    phks_mesh *m = creature(SHAPE_OCTOPUS, 1, NULL, 1);
+    phks_spectrum *spec;
+    ck_assert_int_eq(phks_spectrum_compute(m, NULL, &spec), PHKS_OK);
+    size_t n = phks_mesh_vertex_count(m);
+    double *h = malloc(n * sizeof *h);
+    phks_options o;
+    phks_options_init(&o);
+    ck_assert_int_eq(phks_spectrum_hks(spec, 5 * o.tau, h), PHKS_OK);
+    phks_maximum max[15];
+    size_t count;
+    ck_assert_int_eq(phks_persistent_maxima(m, h, 15, 0, max, &count, NULL), PHKS_OK);
+    phks_signature *sig;
+    ck_assert_int_eq(phks_signature_from_spectrum(m, spec, NULL, &sig), PHKS_OK);
+    ck_assert_uint_eq(phks_signature_feature_count(sig), count);
+    ck_assert_uint_eq(count, 15);
+    for (size_t i = 0; i < count; i++) {
+        ck_assert_uint_eq(phks_signature_feature_vertex(sig, i), max[i].vertex);
+        ck_assert_double_eq(phks_signature_feature_persistence(sig, i),
+                            max[i].persistence);
+        ck_assert_double_eq_tol(phks_signature_feature_vector(sig, i)[0],
+                                h[max[i].vertex], 1e-12 * h[max[i].vertex]);
+        if (i)
+            ck_assert(max[i].persistence <= max[i - 1].persistence);
+    }
+    /* The octopus has 8 tentacle tips; they outlive everything else, and
+     * exactly one maximum (the highest) is never merged. */
+    ck_assert(isinf(max[0].persistence));
+    ck_assert(isfinite(max[1].persistence));
+    free(h);
+    phks_signature_free(sig);
+    phks_spectrum_free(spec);
+    phks_mesh_free(m);
+}
+END_TEST
+
+typedef struct {
+    int calls[PHKS_STAGE_COUNT];
+    int stop_stage;
+    double last;
+    int backwards;
+} progress_log;
+
+static int record(void *user, phks_stage stage, double fraction)
+{
+    progress_log *log = user;
+    log->calls[stage]++;
+    if (fraction < 0 || fraction > 1)
+        log->backwards++;
+    log->last = fraction;
+    return (int)stage == log->stop_stage;
+}
+
+START_TEST(progress_reaches_every_stage_and_cancels)
+{
+    phks_mesh *m = creature(SHAPE_QUADRUPED, 1, NULL, 1);
+    phks_options o;
+    phks_options_init(&o);
+    progress_log log = {{0}, -1, 0, 0};
+    o.progress = record;
+    o.progress_user = &log;
+    phks_signature *sig;
+    ck_assert_int_eq(phks_signature_compute(m, &o, &sig), PHKS_OK);
+    for (int s = 0; s < PHKS_STAGE_COUNT; s++)
+        ck_assert_int_gt(log.calls[s], 0);
+    ck_assert_int_eq(log.backwards, 0);
+    phks_signature_free(sig);
+    for (int stop = 0; stop < PHKS_STAGE_COUNT; stop++) {
+        progress_log cancel = {{0}, stop, 0, 0};
+        o.progress_user = &cancel;
+        sig = (phks_signature *)1;
+        ck_assert_int_eq(phks_signature_compute(m, &o, &sig), PHKS_ERROR_CANCELLED);
+        ck_assert_ptr_null(sig);
+        for (int later = stop + 1; later < PHKS_STAGE_COUNT; later++)
+            ck_assert_int_eq(cancel.calls[later], 0);
+    }
+    phks_mesh_free(m);
+}
+END_TEST
+
+int main(void)
+{
+    Suite *s = suite_create("signature");
+    TCase *c = tcase_create("signature");
+    tcase_set_timeout(c, 600);
+    tcase_add_loop_test(c, invariant_to_rigid_motion_and_scale, 0, SHAPE_KIND_COUNT);
+    tcase_add_test(c, poses_score_far_closer_than_kinds);
+    tcase_add_test(c, repeatable_and_equal_through_the_spectrum);
+    tcase_add_test(c, features_are_the_persistent_maxima);
+    tcase_add_test(c, progress_reaches_every_stage_and_cancels);
+    suite_add_tcase(s, c);
+    return run_suite(s);
+}
