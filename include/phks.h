@@ -240,7 +240,7 @@ typedef struct phks_mesh phks_mesh;
  * 3 * triangle_count vertex indices. Errors: PHKS_ERROR_INVALID_ARGUMENT
  * (NULL pointers), PHKS_ERROR_NON_FINITE, PHKS_ERROR_INDEX_OUT_OF_RANGE,
  * PHKS_ERROR_NO_TRIANGLES (triangle_count 0), PHKS_ERROR_ZERO_AREA,
- * PHKS_ERROR_TOO_LARGE (more than 2^32 - 2 vertices or triangles),
+ * PHKS_ERROR_TOO_LARGE (more than 2^32 - 2 vertices or 2^30 triangles),
  * PHKS_ERROR_OUT_OF_MEMORY. Thread-safe. */
 PHKS_API phks_status phks_mesh_create(const double *xyz, size_t vertex_count,
                                       const uint32_t *triangles,
