@@ -1,16 +1,37 @@
 /*
- * eigen_lanczos.c - the fast solver: block Lanczos with full
- * re-orthogonalisation, without restarts.
+ * eigen_lanczos.c - the fast solver: block Lanczos on a Chebyshev
+ * polynomial of B, with full re-orthogonalisation, then Rayleigh-Ritz with
+ * B itself.
  *
- * Why this shape: B is bounded and its low end is what we want, so plain
- * Krylov iteration converges in about as many operator applications as
- * ARPACK needs, but ARPACK spends most of its time orthogonalising one
- * vector at a time (memory-bound BLAS2). Here the operator is applied to a
- * block of vectors at once (one pass over the matrix serves the whole
- * block) and every orthogonalisation is a matrix-matrix product (BLAS3).
- * Rayleigh-Ritz uses T = V^T B V as accumulated by the projections (the
- * three-term recurrence is never used explicitly), so the eigenvalues are
- * those of B restricted to the Krylov space.
+ * Why this shape. B is bounded (spectrum in [0, lmax], lmax ~ 1/tau) and we
+ * want its k lowest eigenpairs, which sit in a small fraction of that
+ * range. Plain Lanczos on B needs a Krylov basis several times k for that
+ * (the polynomial degree it needs grows like sqrt(lmax / lambda_k)), and
+ * with full re-orthogonalisation the cost is O(n m^2) in the basis size m:
+ * that, not the products, dominates. Running Lanczos on p(B), where p is a
+ * Chebyshev polynomial of low degree d that keeps [a, lmax] inside [-1, 1]
+ * and grows fast below a (a just above lambda_k), needs a basis only a
+ * little larger than k, at the price of d products per basis vector.
+ *
+ *  1. A short block Lanczos run on B gives an upper bound on lmax (top Ritz
+ *     value plus its residual) and, by Gauss quadrature on the random start
+ *     block, an estimate of the eigenvalue count N(lambda), from which the
+ *     cut a is chosen so that about k plus a margin eigenvalues lie below.
+ *  2. Block Lanczos on p(B) (block BLOCK, classical Gram-Schmidt twice
+ *     against the whole basis, BLAS3) until the top k + guard Ritz pairs of
+ *     T = V^T p(B) V are converged.
+ *  3. Rayleigh-Ritz with B on those Ritz vectors gives the eigenpairs of B,
+ *     whose residuals |B x - lambda x| are computed explicitly and must be
+ *     below tolerance * |B|. If they are not, Lanczos goes on; if the cut
+ *     turned out to lie below lambda_k, the solve restarts with a higher
+ *     one; if the basis would grow past its cap, the solve falls back to
+ *     plain Lanczos on B (degree 1), and below that to the dense solver.
+ *
+ * The operator is applied by a kernel of this file to row-major blocks of
+ * BLOCK vectors, fused with the Chebyshev recurrence (one pass over the
+ * matrix per degree for the whole block). All work is split over threads in
+ * fixed contiguous ranges, so results are bit-identical between runs with
+ * the same thread count.
  */
 #include "internal.h"
 
@@ -19,24 +40,209 @@
 #include <math.h>
 #include <string.h>
 
-#define BLOCK 8
-/* A new direction this much smaller than |B| is numerically in the span of
- * the basis already: the Krylov space has (nearly) closed. */
+#if defined(__GNUC__) && defined(__x86_64__)
+#include <immintrin.h>
+#define HAVE_AVX2_KERNEL 1
+#else
+#define HAVE_AVX2_KERNEL 0
+#endif
+
+#ifndef BLOCK
+#define BLOCK 16
+#endif
+/* A new direction this much smaller than its norm before projection is
+ * numerically in the span of the basis already. */
 #define BREAKDOWN 1e-12
+/* Below this (relative to the norm before projection), the new block's
+ * orthogonality to the basis is restored by further passes. */
+#define REPAIR 1e-6
+/* Steps of the first, plain Lanczos run that estimates the spectrum. */
+#define PROBE_STEPS 24
+
+#ifdef PHKS_LANCZOS_STATS
+#include <stdio.h>
+#include <stdlib.h>
+#include <time.h>
+size_t phks_lanczos_products, phks_lanczos_basis;
+double phks_lz_t[4];
+static double lz_now(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+#define TSTART double t0_ = lz_now()
+#define TSTOP(i) (phks_lz_t[i] += lz_now() - t0_)
+#define TSTART2 double t1_ = lz_now()
+#define TSTOP2(i) (phks_lz_t[i] += lz_now() - t1_)
+static int knob(const char *name, int def)
+{
+    const char *s = getenv(name);
+    return s ? atoi(s) : def;
+}
+static double knobf(const char *name, double def)
+{
+    const char *s = getenv(name);
+    return s ? atof(s) : def;
+}
+#define STAT(x) (x)
+#else
+#define knob(name, def) (def)
+#define knobf(name, def) (def)
+#define STAT(x) ((void)0)
+#define TSTART
+#define TSTOP(i) ((void)0)
+#define TSTART2
+#define TSTOP2(i) ((void)0)
+#endif
+
+/* ---------------------------------------------------------------- kernel */
+
+/* out = alpha * (B x) + gamma * x + beta * z on row-major n x BLOCK blocks
+ * (z may be NULL). */
+typedef struct {
+    const phks_operator_matrix *op;
+    const double *x, *z;
+    double *out;
+    double alpha, gamma, beta;
+} poly_ctx;
+
+static void poly_rows_generic(void *ctx, size_t begin, size_t end)
+{
+    const poly_ctx *p = ctx;
+    const phks_operator_matrix *op = p->op;
+    for (size_t w = begin; w < end; w++) {
+        double acc[BLOCK] = {0};
+        for (size_t i = op->row_start[w]; i < op->row_start[w + 1]; i++) {
+            const double v = op->val[i];
+            const double *x = p->x + (size_t)op->col[i] * BLOCK;
+            for (size_t j = 0; j < BLOCK; j++)
+                acc[j] += v * x[j];
+        }
+        const double *xw = p->x + w * BLOCK;
+        double *o = p->out + w * BLOCK;
+        if (p->z) {
+            const double *zw = p->z + w * BLOCK;
+            for (size_t j = 0; j < BLOCK; j++)
+                o[j] = p->alpha * acc[j] + p->gamma * xw[j] + p->beta * zw[j];
+        } else {
+            for (size_t j = 0; j < BLOCK; j++)
+                o[j] = p->alpha * acc[j] + p->gamma * xw[j];
+        }
+    }
+}
+
+#if HAVE_AVX2_KERNEL
+__attribute__((target("avx2,fma"))) static void poly_rows_avx2(void *ctx,
+                                                                size_t begin,
+                                                                size_t end)
+{
+    const poly_ctx *p = ctx;
+    const phks_operator_matrix *op = p->op;
+    const __m256d alpha = _mm256_set1_pd(p->alpha), gamma = _mm256_set1_pd(p->gamma),
+                  beta = _mm256_set1_pd(p->beta);
+    for (size_t w = begin; w < end; w++) {
+        __m256d acc[BLOCK / 4];
+        for (int j = 0; j < BLOCK / 4; j++)
+            acc[j] = _mm256_setzero_pd();
+        const size_t last = op->row_start[w + 1];
+        for (size_t i = op->row_start[w]; i < last; i++) {
+            const __m256d v = _mm256_broadcast_sd(op->val + i);
+            const double *x = p->x + (size_t)op->col[i] * BLOCK;
+            for (int j = 0; j < BLOCK / 4; j++)
+                acc[j] = _mm256_fmadd_pd(v, _mm256_loadu_pd(x + 4 * j), acc[j]);
+        }
+        const double *xw = p->x + w * BLOCK;
+        double *o = p->out + w * BLOCK;
+        for (int j = 0; j < BLOCK / 4; j++) {
+            __m256d r = _mm256_fmadd_pd(gamma, _mm256_loadu_pd(xw + 4 * j),
+                                        _mm256_mul_pd(alpha, acc[j]));
+            if (p->z)
+                r = _mm256_fmadd_pd(beta, _mm256_loadu_pd(p->z + w * BLOCK + 4 * j), r);
+            _mm256_storeu_pd(o + 4 * j, r);
+        }
+    }
+}
+#endif
+
+typedef struct {
+    const phks_operator_matrix *op;
+    unsigned threads;
+    bool avx2;
+} engine;
+
+static void poly_step(const engine *e, const double *x, const double *z,
+                      double *out, double alpha, double gamma, double beta)
+{
+    poly_ctx p = {e->op, x, z, out, alpha, gamma, beta};
+#if HAVE_AVX2_KERNEL
+    if (e->avx2) {
+        phks_parallel_for(e->op->n, e->threads, poly_rows_avx2, &p);
+        return;
+    }
+#endif
+    phks_parallel_for(e->op->n, e->threads, poly_rows_generic, &p);
+}
+
+/* The filter p(B) = T_d((c I - B) / e) (degree 1 with c = 0, e = 1: -B,
+ * which spans the same Krylov space as B). */
+typedef struct {
+    int degree;
+    double c, e;
+} filter;
+
+/* Column-major n x BLOCK <-> row-major. */
+static void to_rows(const double *cols, double *rows, size_t n)
+{
+    for (size_t i = 0; i < n; i++)
+        for (size_t j = 0; j < BLOCK; j++)
+            rows[i * BLOCK + j] = cols[j * n + i];
+}
+
+static void to_cols(const double *rows, double *cols, size_t n)
+{
+    for (size_t j = 0; j < BLOCK; j++)
+        for (size_t i = 0; i < n; i++)
+            cols[j * n + i] = rows[i * BLOCK + j];
+}
+
+/* out (column-major) = p(B) in (column-major), with three row-major
+ * scratch blocks r[0..2]. */
+static void apply_filter(const engine *e, const filter *f, const double *in,
+                         double *out, double *r[3], size_t n)
+{
+    to_rows(in, r[0], n);
+    /* T_1 = (c x - B x) / e */
+    poly_step(e, r[0], NULL, r[1], -1 / f->e, f->c / f->e, 0);
+    STAT(phks_lanczos_products += BLOCK);
+    double *prev = r[0], *cur = r[1], *spare = r[2];
+    for (int d = 2; d <= f->degree; d++) {
+        /* T_{d} = 2 (c - B)/e T_{d-1} - T_{d-2} */
+        poly_step(e, cur, prev, spare, -2 / f->e, 2 * f->c / f->e, -1);
+        STAT(phks_lanczos_products += BLOCK);
+        double *t = prev;
+        prev = cur;
+        cur = spare;
+        spare = t;
+    }
+    to_cols(cur, out, n);
+}
+
+/* ------------------------------------------------------------- workspace */
 
 typedef struct {
     size_t n, k, b;
-    size_t cap;             /* most basis columns ever allowed               */
+    size_t cap;             /* most basis columns allowed                    */
     size_t room;            /* basis columns allocated so far                */
     double *v;              /* n x room, column-major basis                  */
-    double *t;              /* V^T B V, upper triangle packed by columns:
-                               column j holds rows 0..j at j (j + 1) / 2     */
+    double *t;              /* room x room, V^T p(B) V (upper triangle)      */
     double *w;              /* n x b residual block                          */
-    double *xr, *yr;        /* n x b row-major blocks for the operator       */
+    double *keep;           /* n x b copy of w for repairs                   */
+    double *rows[3];        /* n x b row-major blocks for the operator       */
     double *c;              /* room x b projection coefficients              */
     double *tau;            /* b Householder scalars                         */
-    double *ritz;           /* room x k Ritz vectors of T                    */
-    double *theta;          /* room Ritz values                              */
+    double *ritz;           /* room x room eigenvectors of T                 */
+    double *theta;          /* room eigenvalues of T                         */
     lapack_int *support;    /* 2 room, for dsyevr                            */
     double *tfull;          /* room x room copy of T for dsyevr              */
 } lanczos;
@@ -46,14 +252,16 @@ static void release(lanczos *L)
     phks_free(L->v);
     phks_free(L->t);
     phks_free(L->w);
-    phks_free(L->xr);
-    phks_free(L->yr);
+    phks_free(L->keep);
+    for (int i = 0; i < 3; i++)
+        phks_free(L->rows[i]);
     phks_free(L->c);
     phks_free(L->tau);
     phks_free(L->ritz);
     phks_free(L->theta);
     phks_free(L->support);
     phks_free(L->tfull);
+    memset(L, 0, sizeof *L);
 }
 
 #define GROW(field, count)                                                   \
@@ -64,40 +272,44 @@ static void release(lanczos *L)
         L->field = p_;                                                       \
     } while (0)
 
-/* Makes room for `columns` basis vectors. The basis grows geometrically:
- * how many vectors convergence needs is only known at the end, and
- * allocating the worst case up front would cost several times the memory
- * that typical meshes use. */
+/* Makes room for `columns` basis vectors, growing geometrically up to cap.
+ * T is kept as a full room x room matrix (column-major, leading dimension
+ * room), so growing it moves its columns. */
 static phks_status reserve(lanczos *L, size_t columns)
 {
     if (columns <= L->room)
         return PHKS_OK;
-    size_t room = L->room * 2 > columns ? L->room * 2 : columns;
+    size_t room = L->room + L->room / 2 > columns ? L->room + L->room / 2 : columns;
     room = room < L->cap ? room : L->cap;
     room -= room % L->b;
+    size_t old = L->room;
     GROW(v, L->n * room);
-    GROW(t, room * (room + 1) / 2);
+    GROW(t, room * room);
+    for (size_t j = old; j-- > 0;) {
+        memmove(L->t + j * room, L->t + j * old, old * sizeof *L->t);
+        memset(L->t + j * room + old, 0, (room - old) * sizeof *L->t);
+    }
+    memset(L->t + old * room, 0, (room - old) * room * sizeof *L->t);
     GROW(c, room * L->b);
-    GROW(ritz, room * L->k);
+    GROW(ritz, room * room);
     GROW(theta, room);
     GROW(support, 2 * room);
     GROW(tfull, room * room);
-    memset(L->t + L->room * (L->room + 1) / 2, 0,
-           (room * (room + 1) / 2 - L->room * (L->room + 1) / 2) * sizeof *L->t);
     L->room = room;
     return PHKS_OK;
 }
 
-static phks_status allocate(lanczos *L)
+static phks_status allocate(lanczos *L, size_t first)
 {
     size_t n = L->n, b = L->b;
     L->w = phks_malloc_array(n, b * sizeof(double));
-    L->xr = phks_malloc_array(n, b * sizeof(double));
-    L->yr = phks_malloc_array(n, b * sizeof(double));
+    L->keep = phks_malloc_array(n, b * sizeof(double));
+    for (int i = 0; i < 3; i++)
+        L->rows[i] = phks_malloc_array(n, b * sizeof(double));
     L->tau = phks_malloc_array(b, sizeof(double));
-    if (!L->w || !L->xr || !L->yr || !L->tau)
+    if (!L->w || !L->keep || !L->rows[0] || !L->rows[1] || !L->rows[2] || !L->tau)
         return phks_fail_oom("Lanczos workspace");
-    return reserve(L, 3 * L->k + 8 * b < L->cap ? 3 * L->k + 8 * b : L->cap);
+    return reserve(L, first < L->cap ? first : L->cap);
 }
 
 /* A fixed pseudo-random block, so that every run starts alike. */
@@ -110,35 +322,70 @@ static void random_block(double *w, size_t n, size_t b, uint64_t seed)
     }
 }
 
-/* W -= V[:, 0:m] (V[:, 0:m]^T W), twice (classical Gram-Schmidt with one
- * re-orthogonalisation: "twice is enough"). When col is given, W is B times
- * the basis block at columns [col, col + b), and the coefficients on and
- * above the diagonal go to T. */
+/* One classical Gram-Schmidt pass of W against V[:, lo:m]; when col >= 0
+ * the coefficients are added to T (rows lo..m-1 of columns col..col+b-1). */
+static void project(lanczos *L, size_t lo, size_t m, double *w, long col)
+{
+    size_t n = L->n, b = L->b, cnt = m - lo;
+    const double *v = L->v + lo * n;
+    cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, (int)cnt, (int)b,
+                (int)n, 1.0, v, (int)n, w, (int)n, 0.0, L->c, (int)cnt);
+    cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)n, (int)b,
+                (int)cnt, -1.0, v, (int)n, L->c, (int)cnt, 1.0, w, (int)n);
+    if (col >= 0)
+        for (size_t j = 0; j < b; j++) {
+            double *t = L->t + ((size_t)col + j) * L->room + lo;
+            for (size_t i = 0; i < cnt; i++)
+                t[i] += L->c[j * cnt + i];
+        }
+}
+
+static double smallest_ratio(const lanczos *L, const double *w, const double *before)
+{
+    double s = INFINITY;
+    for (size_t j = 0; j < L->b; j++) {
+        double x = cblas_dnrm2((int)L->n, w + j * L->n, 1);
+        s = fmin(s, before[j] > 0 ? x / before[j] : 1);
+    }
+    return s;
+}
+
+/* Makes W orthogonal to V[:, 0:m]. The large coefficients of a Lanczos
+ * step are those on the last two blocks (the three-term recurrence): they
+ * are removed first, with two passes ("twice is enough"). What is left
+ * against the whole basis is the slow loss of orthogonality, of the order
+ * of the rounding errors, so one pass over the whole basis removes it
+ * without cancellation; a second one follows when the pass did shrink a
+ * column by more than 1/sqrt(2) (Daniel-Gragg-Kaufman-Stewart). When
+ * col >= 0, W is p(B) times the basis block at columns [col, col + b), and
+ * the coefficients go to T. */
 static void orthogonalise(lanczos *L, size_t m, double *w, long col)
 {
     size_t n = L->n, b = L->b;
     if (m == 0)
         return;
-    for (int pass = 0; pass < 2; pass++) {
-        cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, (int)m, (int)b,
-                    (int)n, 1.0, L->v, (int)n, w, (int)n, 0.0, L->c, (int)m);
-        cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)n, (int)b,
-                    (int)m, -1.0, L->v, (int)n, L->c, (int)m, 1.0, w, (int)n);
-        if (col >= 0)
-            for (size_t j = 0; j < b; j++) {
-                size_t column = (size_t)col + j;
-                double *t = L->t + column * (column + 1) / 2;
-                for (size_t i = 0; i <= column; i++)
-                    t[i] += L->c[j * m + i];
-            }
-    }
+    size_t lo = m > 2 * b ? m - 2 * b : 0;
+    project(L, lo, m, w, col);
+    project(L, lo, m, w, col);
+    if (lo == 0)
+        return;
+    double before[BLOCK];
+    for (size_t j = 0; j < b; j++)
+        before[j] = cblas_dnrm2((int)n, w + j * n, 1);
+    project(L, 0, m, w, col);
+    if (smallest_ratio(L, w, before) < 0.7071)
+        project(L, 0, m, w, col);
 }
 
 /* Householder QR of the n x b block w: w becomes Q, r (b x b, column-major)
- * receives R. Returns the smallest |R_ii|. */
+ * receives R. Returns the smallest |R_ii| relative to the largest column
+ * norm of w before. */
 static phks_status qr(lanczos *L, double *w, double *r, double *smallest)
 {
     size_t n = L->n, b = L->b;
+    double big = 0;
+    for (size_t j = 0; j < b; j++)
+        big = fmax(big, cblas_dnrm2((int)n, w + j * n, 1));
     lapack_int info = LAPACKE_dgeqrf(LAPACK_COL_MAJOR, (lapack_int)n,
                                      (lapack_int)b, w, (lapack_int)n, L->tau);
     if (info != 0)
@@ -146,7 +393,8 @@ static phks_status qr(lanczos *L, double *w, double *r, double *smallest)
     double s = INFINITY;
     for (size_t j = 0; j < b; j++)
         for (size_t i = 0; i < b; i++) {
-            r[j * b + i] = i <= j ? w[j * n + i] : 0;
+            if (r)
+                r[j * b + i] = i <= j ? w[j * n + i] : 0;
             if (i == j)
                 s = fmin(s, fabs(w[j * n + i]));
         }
@@ -154,130 +402,322 @@ static phks_status qr(lanczos *L, double *w, double *r, double *smallest)
                           (lapack_int)b, w, (lapack_int)n, L->tau);
     if (info != 0)
         return phks_fail(PHKS_ERROR_SOLVER, "Lanczos: dorgqr info %d", (int)info);
-    *smallest = s;
+    *smallest = big > 0 ? s / big : 0;
     return PHKS_OK;
 }
 
-/* Next basis block from the residual w of the block at columns
- * [m - b, m): w = Q R with Q orthogonal to V[:, 0:m]. When the residual is
- * (nearly) rank-deficient, Householder's Q may leave the span it should
- * avoid, so Q is re-orthogonalised against the basis and R recomputed as
- * the exact projection Q^T w. */
-static phks_status next_block(lanczos *L, size_t m, double norm, double *r)
+/* Next basis block from the residual w (already orthogonal to V[:, 0:m]):
+ * w = Q R. When w is (nearly) rank-deficient, Householder's Q may leave the
+ * span it should avoid, so weak columns are replaced by random ones, Q is
+ * re-orthogonalised against the basis, and R is recomputed as the exact
+ * projection Q^T w. `scale` is the norm of w before the projections. */
+static phks_status next_block(lanczos *L, size_t m, double *r, double scale)
 {
     size_t n = L->n, b = L->b;
     double smallest;
-    memcpy(L->xr, L->w, n * b * sizeof(double)); /* keep w for a repair */
+    memcpy(L->keep, L->w, n * b * sizeof(double));
     phks_status st = qr(L, L->w, r, &smallest);
-    if (st != PHKS_OK || smallest > BREAKDOWN * norm)
-        return st;
-    double *q = L->w, *residual = L->xr;
-    random_block(L->yr, n, b, m);
+    double weakest = INFINITY;
     for (size_t j = 0; j < b; j++)
-        if (fabs(r[j * b + j]) <= BREAKDOWN * norm)
-            memcpy(q + j * n, L->yr + j * n, n * sizeof(double));
-    orthogonalise(L, m, q, -1);
-    double dummy[BLOCK * BLOCK];
-    st = qr(L, q, dummy, &smallest);
-    if (st != PHKS_OK)
+        weakest = fmin(weakest, fabs(r[j * b + j]));
+    if (st != PHKS_OK || weakest > REPAIR * scale)
         return st;
-    orthogonalise(L, m, q, -1);
-    st = qr(L, q, dummy, &smallest);
-    if (st != PHKS_OK)
-        return st;
+    double big = scale;
+    double *q = L->w;
+    random_block(L->rows[0], n, b, m + 17);
+    for (size_t j = 0; j < b; j++)
+        if (fabs(r[j * b + j]) <= BREAKDOWN * big || big == 0)
+            memcpy(q + j * n, L->rows[0] + j * n, n * sizeof(double));
+    for (int pass = 0; pass < 2; pass++) {
+        project(L, 0, m, q, -1);
+        project(L, 0, m, q, -1);
+        st = qr(L, q, NULL, &smallest);
+        if (st != PHKS_OK)
+            return st;
+    }
     cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, (int)b, (int)b, (int)n,
-                1.0, q, (int)n, residual, (int)n, 0.0, r, (int)b);
+                1.0, q, (int)n, L->keep, (int)n, 0.0, r, (int)b);
     return PHKS_OK;
 }
 
-static void apply_block(const phks_operator_matrix *op, lanczos *L,
-                        const double *block, unsigned threads)
+/* Eigenpairs il..iu (1-based, ascending) of T[0:m, 0:m] into theta/ritz
+ * (ritz has leading dimension m). */
+static phks_status eig_t(lanczos *L, size_t m, size_t il, size_t iu)
 {
-    size_t n = L->n, b = L->b;
-    for (size_t i = 0; i < n; i++)
-        for (size_t j = 0; j < b; j++)
-            L->xr[i * b + j] = block[j * n + i];
-    phks_operator_apply(op, L->xr, L->yr, b, threads);
-    for (size_t i = 0; i < n; i++)
-        for (size_t j = 0; j < b; j++)
-            L->w[j * n + i] = L->yr[i * b + j];
-}
-
-/* Ritz pairs of T[0:m, 0:m] (its upper triangle: the projections
- * V_i^T B V_j for i <= j, which is all of V^T B V); returns the largest residual |B y - theta y|
- * of the k wanted ones, which is |R s_last| for the coupling R to the next
- * block. */
-static phks_status ritz(lanczos *L, size_t m, const double *r, double *worst)
-{
-    size_t k = L->k, b = L->b;
-    for (size_t j = 0; j < m; j++)
-        memcpy(L->tfull + j * m, L->t + j * (j + 1) / 2, (j + 1) * sizeof(double));
+    for (size_t j = 0; j < m; j++) {
+        memcpy(L->tfull + j * m, L->t + j * L->room, (j + 1) * sizeof(double));
+    }
     lapack_int found = 0;
     lapack_int info = LAPACKE_dsyevr(LAPACK_COL_MAJOR, 'V', 'I', 'U',
                                      (lapack_int)m, L->tfull, (lapack_int)m, 0,
-                                     0, 1, (lapack_int)k, 0, &found, L->theta,
-                                     L->ritz, (lapack_int)m, L->support);
-    if (info != 0 || (size_t)found != k)
+                                     0, (lapack_int)il, (lapack_int)iu, 0, &found,
+                                     L->theta, L->ritz, (lapack_int)m, L->support);
+    if (info != 0 || (size_t)found != iu - il + 1)
         return phks_fail(PHKS_ERROR_SOLVER, "Lanczos: dsyevr info %d", (int)info);
-    double w = 0;
-    for (size_t e = 0; e < k; e++) {
-        const double *s = L->ritz + e * m + (m - b);
-        double sum = 0;
-        for (size_t i = 0; i < b; i++) {
-            double x = 0;
-            for (size_t j = 0; j < b; j++)
-                x += r[j * b + i] * s[j];
-            sum += x * x;
-        }
-        w = fmax(w, sqrt(sum));
-    }
-    *worst = w;
     return PHKS_OK;
 }
 
-phks_status phks_eigen_lanczos(const phks_operator_matrix *op, size_t k,
-                               const phks_options *opt, double *values,
-                               double *vectors)
+/* |R s_last| for Ritz vector e (column e of ritz, m rows): its residual. */
+static double ritz_residual(const lanczos *L, size_t m, const double *r, size_t e)
 {
-    size_t n = op->n, b = BLOCK;
-    /* The Krylov space needs room well beyond k (about 3k on real meshes,
-     * up to 12k when the wanted eigenvalues are a tiny fraction of |B|).
-     * When n leaves too little room, the dense solve is exact and cheap. */
-    size_t cap = 12 * k + 8 * b;
-    if (cap > n - n % b - b)
-        cap = n - n % b - b;
-    if (n < 4 * b || cap < k + 4 * b)
-        return phks_eigen_dense(op, k, opt, values, vectors);
-    lanczos L = {.n = n, .k = k, .b = b, .cap = cap};
-    phks_status st = allocate(&L);
-    if (st != PHKS_OK) {
-        release(&L);
+    size_t b = L->b;
+    const double *s = L->ritz + e * m + (m - b);
+    double sum = 0;
+    for (size_t i = 0; i < b; i++) {
+        double x = 0;
+        for (size_t j = i; j < b; j++)
+            x += r[j * b + i] * s[j];
+        sum += x * x;
+    }
+    return sqrt(sum);
+}
+
+/* Runs block Lanczos on p(B) from the random block `seed`, extending the
+ * basis until `done` says the top `want` Ritz pairs are good or the cap is
+ * hit. */
+typedef struct {
+    const engine *eng;
+    const filter *f;
+    const phks_options *opt;
+    double progress_lo, progress_hi;
+    size_t expect;          /* expected final basis size, for progress */
+} run_ctx;
+
+/* One block step: W = p(B) V_last, project, next block. m = columns so far.
+ * Returns with r = coupling of the new block (in L->w). */
+static phks_status step(lanczos *L, const run_ctx *rc, size_t m, double *r)
+{
+    size_t n = L->n, b = L->b;
+    TSTART;
+    apply_filter(rc->eng, rc->f, L->v + (m - b) * n, L->w, L->rows, n);
+    TSTOP(0);
+    double scale = 0;
+    for (size_t j = 0; j < b; j++)
+        scale = fmax(scale, cblas_dnrm2((int)n, L->w + j * n, 1));
+    {
+        TSTART2;
+        orthogonalise(L, m, L->w, (long)(m - b));
+        phks_status st = next_block(L, m, r, scale);
+        TSTOP2(1);
         return st;
     }
-    double norm = op->norm_bound, r[BLOCK * BLOCK], smallest;
-    unsigned threads = phks_thread_count(opt);
-    random_block(L.v, n, b, 0);
-    st = qr(&L, L.v, r, &smallest);
+}
 
-    size_t m = b, next_check = k + 2 * b;
-    double worst = INFINITY;
+/* Symmetrises T's last block column into the lower part. (T is used only
+ * through its upper triangle; nothing to do.) */
+
+/* ----------------------------------------------------------- probe run */
+
+/* A short plain block Lanczos on B: an upper bound on lmax and the cut a
+ * with about `target` eigenvalues below it (Gauss quadrature estimate of
+ * the counting function from the random start block). */
+static phks_status probe(const engine *eng, const phks_options *opt, size_t k,
+                         size_t target, double *lmax, double *cut)
+{
+    size_t n = eng->op->n, b = BLOCK;
+    size_t steps = PROBE_STEPS;
+    if ((steps + 1) * b > n - n % b)
+        steps = (n - n % b) / b - 1;
+    lanczos L = {.n = n, .k = k, .b = b, .cap = steps * b};
+    phks_status st = allocate(&L, L.cap);
+    double r[BLOCK * BLOCK], smallest;
+    filter plain = {1, 0, 1};
+    run_ctx rc = {eng, &plain, opt, 0, 0, 0};
+    if (st == PHKS_OK) {
+        random_block(L.v, n, b, 0);
+        st = qr(&L, L.v, r, &smallest);
+    }
+    size_t m = b;
     while (st == PHKS_OK) {
-        apply_block(op, &L, L.v + (m - b) * n, threads);
-        orthogonalise(&L, m, L.w, (long)(m - b));
-        st = next_block(&L, m, norm, r);
+        st = step(&L, &rc, m, r);
+        if (st != PHKS_OK || m + b > L.cap)
+            break;
+        memcpy(L.v + m * n, L.w, n * b * sizeof(double));
+        m += b;
+        st = phks_progress(opt, PHKS_STAGE_EIGEN, 0.02 * (double)m / (double)L.cap);
+    }
+    if (st == PHKS_OK)
+        st = eig_t(&L, m, 1, m);
+    if (st == PHKS_OK) {
+        /* T holds -B: eigenvalues of B are -theta, in reverse order. */
+        double top = -L.theta[0];
+        double res = ritz_residual(&L, m, r, 0);
+        *lmax = (top + res) * 1.01;
+        /* count estimate: n / b * sum of |first-block components|^2 */
+        double count = 0;
+        *cut = *lmax;
+        for (size_t e = m; e-- > 0;) {
+            const double *s = L.ritz + e * m;
+            double w = 0;
+            for (size_t i = 0; i < b; i++)
+                w += s[i] * s[i];
+            count += w * (double)n / (double)b;
+            if (count >= (double)target) {
+                *cut = -L.theta[e];
+                break;
+            }
+        }
+    }
+    release(&L);
+    return st;
+}
+
+/* ------------------------------------------------------------- the solve */
+
+/* Rayleigh-Ritz with B on the q Ritz vectors Y = V S of the top of T.
+ * values/vectors receive the k lowest pairs; *worst the largest residual
+ * norm among them. */
+static phks_status rayleigh_ritz(lanczos *L, const engine *eng, size_t m,
+                                 size_t q, size_t k, double *values,
+                                 double *vectors, double *worst)
+{
+    size_t n = L->n, b = L->b;
+    size_t qb = (q + b - 1) / b * b; /* padded to whole blocks */
+    phks_status st = PHKS_OK;
+    double *y = phks_malloc_array(n, qb * sizeof(double));
+    double *by = phks_malloc_array(n, qb * sizeof(double));
+    double *g = phks_malloc_array(qb, qb * sizeof(double));
+    double *gv = phks_malloc_array(qb, sizeof(double));
+    if (!y || !by || !g || !gv) {
+        st = phks_fail_oom("Lanczos Rayleigh-Ritz");
+        goto done;
+    }
+    /* Ritz vectors of the top q (theta ascending: the last q columns) */
+    cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)n, (int)q,
+                (int)m, 1.0, L->v, (int)n, L->ritz, (int)m, 0.0, y, (int)n);
+    if (qb > q)
+        memset(y + q * n, 0, (qb - q) * n * sizeof(double));
+    filter plain = {1, 0, 1};
+    for (size_t j = 0; j < qb; j += b) {
+        apply_filter(eng, &plain, y + j * n, by + j * n, L->rows, n);
+        for (size_t i = 0; i < n * b; i++)
+            by[j * n + i] = -by[j * n + i];
+    }
+    cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, (int)q, (int)q, (int)n,
+                1.0, y, (int)n, by, (int)n, 0.0, g, (int)q);
+    for (size_t j = 0; j < q; j++) /* symmetrise */
+        for (size_t i = 0; i < j; i++)
+            g[j * q + i] = g[i * q + j] = 0.5 * (g[j * q + i] + g[i * q + j]);
+    lapack_int info = LAPACKE_dsyev(LAPACK_COL_MAJOR, 'V', 'U', (lapack_int)q, g,
+                                    (lapack_int)q, gv);
+    if (info != 0) {
+        st = phks_fail(PHKS_ERROR_SOLVER, "Lanczos: dsyev info %d", (int)info);
+        goto done;
+    }
+    cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)n, (int)k,
+                (int)q, 1.0, y, (int)n, g, (int)q, 0.0, vectors, (int)n);
+    /* residuals: B X - X Theta = (B Y) G_k - X Theta, into y */
+    cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)n, (int)k,
+                (int)q, 1.0, by, (int)n, g, (int)q, 0.0, y, (int)n);
+    double w = 0;
+    for (size_t e = 0; e < k; e++) {
+        double s = 0;
+        const double *x = vectors + e * n, *bx = y + e * n;
+        for (size_t i = 0; i < n; i++) {
+            double d = bx[i] - gv[e] * x[i];
+            s += d * d;
+        }
+        w = fmax(w, sqrt(s));
+        values[e] = gv[e];
+    }
+    *worst = w;
+done:
+    phks_free(y);
+    phks_free(by);
+    phks_free(g);
+    phks_free(gv);
+    return st;
+}
+
+/* Lanczos on p(B) until the k lowest eigenpairs of B are found. Returns
+ * PHKS_ERROR_NO_CONVERGENCE (without a message) when the cap is hit, and
+ * sets *cut_low when the cut turned out to lie below lambda_k. */
+static phks_status solve(const engine *eng, const filter *f, size_t k,
+                         size_t guard, size_t cap, const phks_options *opt,
+                         double lo, double hi, double *values, double *vectors,
+                         bool *cut_low)
+{
+    size_t n = eng->op->n, b = BLOCK, q = k + guard;
+    double norm = eng->op->norm_bound, tol = opt->tolerance * norm;
+    *cut_low = false;
+    lanczos L = {.n = n, .k = k, .b = b, .cap = cap};
+    phks_status st = allocate(&L, q + 4 * b);
+    run_ctx rc = {eng, f, opt, lo, hi, 0};
+    double r[BLOCK * BLOCK], smallest;
+    if (st == PHKS_OK) {
+        random_block(L.v, n, b, 1);
+        st = qr(&L, L.v, r, &smallest);
+    }
+    size_t m = b, last_check = 0;
+    /* filtered Lanczos converges with a basis of about twice q, plain
+     * Lanczos needs several times that */
+    size_t next_check = (f->degree > 1 ? 3 * q / 2 : 2 * q) / b * b;
+    double last_excess = 0;
+    /* The polynomial's accuracy: Ritz residuals of p(B) are relative to
+     * its largest value, and the wanted vectors must be accurate to about
+     * the tolerance relative to the gap between p at the guard and p at
+     * lambda_k. */
+    double strict = knobf("LZ_STRICT", 0.1);
+    while (st == PHKS_OK) {
+        st = step(&L, &rc, m, r);
         if (st != PHKS_OK)
             break;
-        if (m >= next_check || m + b > cap - b) {
-            st = ritz(&L, m, r, &worst);
-            if (st != PHKS_OK || worst <= opt->tolerance * norm)
+        if (m >= next_check || m + b > cap) {
+            TSTART;
+            st = eig_t(&L, m, m - q, m); /* top q + 1 */
+            TSTOP(2);
+#ifdef PHKS_LANCZOS_STATS
+            fprintf(stderr, "  check m=%zu", m);
+#endif
+            if (st != PHKS_OK)
                 break;
-            next_check = m + (m / 8 > b ? m / 8 : b);
+            /* theta ascending: index 0 is the (q+1)-th largest */
+            double floor_mu = L.theta[0];
+            /* log of the largest ratio residual / threshold */
+            double excess = -INFINITY;
+            for (size_t e = 1 + (q - k); e <= q; e++) {
+                double gap = L.theta[e] - floor_mu;
+                double res = ritz_residual(&L, m, r, e);
+                double x = gap > 0 ? log(res / (strict * opt->tolerance * gap)) : INFINITY;
+                excess = isnan(x) ? INFINITY : fmax(excess, x);
+            }
+            bool ok = excess <= 0;
+#ifdef PHKS_LANCZOS_STATS
+            fprintf(stderr, " excess %.2f\n", excess);
+#endif
+            /* Ritz vectors of the top q are columns 1..q */
+            if (ok) {
+                double worst = INFINITY;
+                memmove(L.ritz, L.ritz + m, q * m * sizeof(double));
+                TSTART2;
+                st = rayleigh_ritz(&L, eng, m, q, k, values, vectors, &worst);
+                TSTOP2(3);
+                if (st != PHKS_OK)
+                    break;
+                if (f->degree > 1 && values[k - 1] >= f->c - f->e) {
+                    *cut_low = true;
+                    st = PHKS_ERROR_NO_CONVERGENCE;
+                    break;
+                }
+                if (worst <= tol)
+                    break;
+                strict *= 0.1;
+            }
+            /* next check where the log excess, extrapolated linearly
+             * from the last two checks, reaches 0 */
+            size_t ahead = m / 4;
+            if (last_check && excess < last_excess && isfinite(excess)) {
+                double slope = (last_excess - excess) / (double)(m - last_check);
+                double need = excess / slope;
+                ahead = need < (double)(m / 4) ? (size_t)need : m / 4;
+            }
+            ahead = ahead > b ? ahead - ahead % b : b;
+            last_check = m;
+            last_excess = excess;
+            next_check = m + ahead;
         }
-        if (m + b > cap - b) {
-            st = phks_fail(PHKS_ERROR_NO_CONVERGENCE,
-                           "Lanczos: residual %.3g above %.3g with a basis of "
-                           "%zu vectors",
-                           worst / norm, opt->tolerance, m);
+        if (m + b > cap) {
+            st = PHKS_ERROR_NO_CONVERGENCE;
             break;
         }
         st = reserve(&L, m + b);
@@ -285,15 +725,74 @@ phks_status phks_eigen_lanczos(const phks_operator_matrix *op, size_t k,
             break;
         memcpy(L.v + m * n, L.w, n * b * sizeof(double));
         m += b;
+        double frac = (double)m / (double)(2 * q);
         st = phks_progress(opt, PHKS_STAGE_EIGEN,
-                           0.95 * (double)m / (double)(3 * k + 4 * b));
+                           lo + (hi - lo) * (frac < 1 ? frac : 1));
     }
-    if (st == PHKS_OK) {
-        memcpy(values, L.theta, k * sizeof *values);
-        cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)n, (int)k,
-                    (int)m, 1.0, L.v, (int)n, L.ritz, (int)m, 0.0, vectors,
-                    (int)n);
-    }
+    STAT(phks_lanczos_basis = m);
     release(&L);
+    return st;
+}
+
+phks_status phks_eigen_lanczos(const phks_operator_matrix *op, size_t k,
+                               const phks_options *opt, double *values,
+                               double *vectors)
+{
+    size_t n = op->n, b = BLOCK;
+    STAT(phks_lanczos_products = 0);
+    /* Plain Lanczos may need a basis of up to about 12 k; Lanczos on the
+     * filter about 2 k. When n leaves too little room, the dense solve is
+     * exact and cheap. */
+    size_t usable = n - n % b;
+    size_t guard = k / 8 + 2 * b;
+    size_t cap = 12 * k + 8 * b;
+    if (cap > usable - b)
+        cap = usable - b;
+    if (n < 8 * b || cap < k + guard + 4 * b ||
+        (PROBE_STEPS + 1) * b > usable)
+        return phks_eigen_dense(op, k, opt, values, vectors);
+    engine eng = {op, phks_thread_count(opt), false};
+#if HAVE_AVX2_KERNEL
+    __builtin_cpu_init();
+    eng.avx2 = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+    eng.avx2 = eng.avx2 && knob("LZ_AVX", 1);
+#endif
+    int degree = knob("LZ_DEGREE", 4);
+    double lmax = 0, cut = 0;
+    phks_status st = PHKS_OK;
+    bool cut_low = false;
+    if (degree > 1) {
+        st = probe(&eng, opt, k, (size_t)((double)(k + guard) * knobf("LZ_MARGIN", 1.2)),
+                   &lmax, &cut);
+        if (st != PHKS_OK)
+            return st;
+#ifdef PHKS_LANCZOS_STATS
+        fprintf(stderr, "probe: lmax %.1f (bound %.1f) cut %.1f\n", lmax, op->norm_bound, cut);
+#endif
+        for (int attempt = 0; attempt < 3 && cut < lmax; attempt++) {
+            filter f = {degree, (lmax + cut) / 2, (lmax - cut) / 2};
+            size_t fcap = 3 * (k + guard) + 8 * b;
+            fcap = fcap < cap ? fcap : cap;
+            st = solve(&eng, &f, k, guard, fcap, opt, 0.02, 0.9, values,
+                       vectors, &cut_low);
+#ifdef PHKS_LANCZOS_STATS
+            fprintf(stderr, "filtered attempt %d: cut %.1f st %d cut_low %d basis %zu lamk %.1f\n",
+                    attempt, cut, (int)st, cut_low, phks_lanczos_basis, values[k - 1]);
+#endif
+            if (st != PHKS_ERROR_NO_CONVERGENCE || !cut_low)
+                break;
+            cut = cut + 2 * (values[k - 1] - cut) + 0.05 * (lmax - cut);
+        }
+        if (st != PHKS_ERROR_NO_CONVERGENCE)
+            return st;
+    }
+    /* plain Lanczos on B */
+    filter plain = {1, 0, 1};
+    st = solve(&eng, &plain, k, guard, cap, opt, 0.02, 1, values, vectors,
+               &cut_low);
+    if (st == PHKS_ERROR_NO_CONVERGENCE)
+        return phks_fail(PHKS_ERROR_NO_CONVERGENCE,
+                         "Lanczos: no convergence with a basis of %zu vectors",
+                         cap);
     return st;
 }
