@@ -116,7 +116,7 @@ static phks_status read_face(obj_state *o)
     size_t line = o->s.line, n = 0;
     uint32_t first = 0, prev = 0;
     while (!phks_scan_eol(&o->s)) {
-        uint32_t v;
+        uint32_t v = 0;
         phks_status st = read_corner(o, n, &v);
         if (st != PHKS_OK)
             return st;

@@ -58,6 +58,10 @@ static phks_status read_count(phks_scan *s, const char *what, uint64_t *out)
     int64_t v = 0;
     phks_scan_space(s);
     phks_scan_result r = phks_scan_int(s, &v);
+    if (r == PHKS_SCAN_RANGE)
+        return phks_fail(PHKS_ERROR_TOO_LARGE, "line %zu: %s count beyond "
+                         "%llu", s->line, what,
+                         (unsigned long long)PHKS_MAX_COUNT);
     if (r != PHKS_SCAN_OK)
         return phks_scan_fail(s, r, "%s count", what);
     if (v < 0)

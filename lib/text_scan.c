@@ -26,6 +26,12 @@
 
 void phks_scan_init(phks_scan *s, const char *data, size_t size)
 {
+    /* Windows editors start UTF-8 files with a byte order mark, which
+     * would otherwise hide the first keyword ("v", "OFF"). */
+    if (size >= 3 && memcmp(data, "\xEF\xBB\xBF", 3) == 0) {
+        data += 3;
+        size -= 3;
+    }
     s->p = data;
     s->end = data + size;
     s->line = 1;
@@ -193,24 +199,23 @@ static const double exact_powers[23] = {
     1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,  1e8,  1e9,  1e10, 1e11,
     1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
 
-/* The slow, exact path: the mantissa digits in [p, q) rewritten as
- * "[-]DDDDe<exp>" for strtod. */
+/* The slow, exact path: the mantissa digits in [p, q) rewritten without
+ * the decimal point as "DDDDe<exp>" for strtod. */
 static double parse_slow(const char *p, const char *q, long exponent)
 {
     char buf[MAX_DIGITS + 32];
     size_t n = 0;
     bool fraction = false, sticky = false;
-    size_t first = 0;
     for (; p < q; p++) {
         if (*p == '.') {
             fraction = true;
             continue;
         }
-        if (n == first && *p == '0') {
+        if (n == 0 && *p == '0') {
             exponent -= fraction;
             continue;
         }
-        if (n - first < MAX_DIGITS) {
+        if (n < MAX_DIGITS) {
             buf[n++] = *p;
             exponent -= fraction;
         } else {
