@@ -264,10 +264,13 @@ typedef enum phks_format {
  * gzip-compressed; gzip is recognised by its magic bytes, the format by the
  * name (".off", ".obj", ".ply", ".stl", each optionally followed by ".gz")
  * or else by the content. A gzip stream may inflate to at most 2 GiB.
- * Errors: PHKS_ERROR_IO, PHKS_ERROR_UNKNOWN_FORMAT, PHKS_ERROR_PARSE,
- * PHKS_ERROR_TRUNCATED, PHKS_ERROR_TOO_LARGE, and those of
- * phks_mesh_create; the message names the file and the line (text) or byte
- * offset (binary). Thread-safe. */
+ * Errors: PHKS_ERROR_IO, PHKS_ERROR_UNKNOWN_FORMAT, PHKS_ERROR_PARSE
+ * (also damaged gzip data), PHKS_ERROR_TRUNCATED (data ends inside a
+ * record, or a gzip stream is cut short), PHKS_ERROR_TOO_LARGE (declared
+ * counts that the remaining bytes could not hold, or beyond 2^32 - 2), and
+ * those of phks_mesh_create; the message names the file and the line
+ * (text) or byte offset (binary). Faces with fewer than 3 corners are
+ * refused. Thread-safe. */
 PHKS_API phks_status phks_mesh_load(const char *path, phks_mesh **mesh);
 /* Same as phks_mesh_load from a buffer in memory (not retained), in the
  * given format (PHKS_FORMAT_AUTO: from the content). Thread-safe. */
