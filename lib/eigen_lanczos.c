@@ -24,8 +24,13 @@
  *     whose residuals |B x - lambda x| are computed explicitly and must be
  *     below tolerance * |B|. If they are not, Lanczos goes on; if the cut
  *     turned out to lie below lambda_k, the solve restarts with a higher
- *     one; if the basis would grow past its cap, the solve falls back to
- *     plain Lanczos on B (degree 1), and below that to the dense solver.
+ *     one (at most three times); if the basis would grow past its cap
+ *     (3 (k + guard) + 8 BLOCK), the solve falls back to plain Lanczos on B
+ *     (degree 1, basis up to 12 k + 8 BLOCK), and when that does not
+ *     converge either, to the dense solver if n <= 16384.
+ *  Meshes too small for a Krylov basis (n < 8 BLOCK, or fewer than
+ *  k + guard + 4 BLOCK usable columns, or no room for the probe) go to the
+ *  dense solver directly.
  *
  * The operator is applied by a kernel of this file to row-major blocks of
  * BLOCK vectors, fused with the Chebyshev recurrence (one pass over the
@@ -58,43 +63,16 @@
 #define REPAIR 1e-6
 /* Steps of the first, plain Lanczos run that estimates the spectrum. */
 #define PROBE_STEPS 24
+/* Degree of the Chebyshev filter: measured best among 1, 2, 3, 4, 6, 8 on
+ * meshes of 2.6k-15k vertices (k = 300). */
+#define DEGREE 4
+/* The cut is placed where about CUT_MARGIN (k + guard) eigenvalues lie
+ * below it, by the probe's estimate. */
+#define CUT_MARGIN 1.2
+/* Largest n for which a solve that did not converge is redone densely
+ * (eigen_dense.c's own limit). */
+#define DENSE_FALLBACK_MAX_N 16384
 
-#ifdef PHKS_LANCZOS_STATS
-#include <stdio.h>
-#include <stdlib.h>
-#include <time.h>
-size_t phks_lanczos_products, phks_lanczos_basis;
-double phks_lz_t[4];
-static double lz_now(void)
-{
-    struct timespec t;
-    clock_gettime(CLOCK_MONOTONIC, &t);
-    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
-}
-#define TSTART double t0_ = lz_now()
-#define TSTOP(i) (phks_lz_t[i] += lz_now() - t0_)
-#define TSTART2 double t1_ = lz_now()
-#define TSTOP2(i) (phks_lz_t[i] += lz_now() - t1_)
-static int knob(const char *name, int def)
-{
-    const char *s = getenv(name);
-    return s ? atoi(s) : def;
-}
-static double knobf(const char *name, double def)
-{
-    const char *s = getenv(name);
-    return s ? atof(s) : def;
-}
-#define STAT(x) (x)
-#else
-#define knob(name, def) (def)
-#define knobf(name, def) (def)
-#define STAT(x) ((void)0)
-#define TSTART
-#define TSTOP(i) ((void)0)
-#define TSTART2
-#define TSTOP2(i) ((void)0)
-#endif
 
 /* ---------------------------------------------------------------- kernel */
 
@@ -169,6 +147,8 @@ typedef struct {
     const phks_operator_matrix *op;
     unsigned threads;
     bool avx2;
+    const phks_options *opt;
+    double fraction;        /* progress reported between products */
 } engine;
 
 static void poly_step(const engine *e, const double *x, const double *z,
@@ -208,24 +188,28 @@ static void to_cols(const double *rows, double *cols, size_t n)
 
 /* out (column-major) = p(B) in (column-major), with three row-major
  * scratch blocks r[0..2]. */
-static void apply_filter(const engine *e, const filter *f, const double *in,
-                         double *out, double *r[3], size_t n)
+static phks_status apply_filter(const engine *e, const filter *f,
+                                const double *in, double *out, double *r[3],
+                                size_t n)
 {
     to_rows(in, r[0], n);
     /* T_1 = (c x - B x) / e */
     poly_step(e, r[0], NULL, r[1], -1 / f->e, f->c / f->e, 0);
-    STAT(phks_lanczos_products += BLOCK);
     double *prev = r[0], *cur = r[1], *spare = r[2];
     for (int d = 2; d <= f->degree; d++) {
+        /* each product is a pass over the matrix: report between them */
+        phks_status st = phks_progress(e->opt, PHKS_STAGE_EIGEN, e->fraction);
+        if (st != PHKS_OK)
+            return st;
         /* T_{d} = 2 (c - B)/e T_{d-1} - T_{d-2} */
         poly_step(e, cur, prev, spare, -2 / f->e, 2 * f->c / f->e, -1);
-        STAT(phks_lanczos_products += BLOCK);
-        double *t = prev;
+            double *t = prev;
         prev = cur;
         cur = spare;
         spare = t;
     }
     to_cols(cur, out, n);
+    return phks_progress(e->opt, PHKS_STAGE_EIGEN, e->fraction);
 }
 
 /* ------------------------------------------------------------- workspace */
@@ -478,9 +462,6 @@ static double ritz_residual(const lanczos *L, size_t m, const double *r, size_t 
 typedef struct {
     const engine *eng;
     const filter *f;
-    const phks_options *opt;
-    double progress_lo, progress_hi;
-    size_t expect;          /* expected final basis size, for progress */
 } run_ctx;
 
 /* One block step: W = p(B) V_last, project, next block. m = columns so far.
@@ -488,30 +469,23 @@ typedef struct {
 static phks_status step(lanczos *L, const run_ctx *rc, size_t m, double *r)
 {
     size_t n = L->n, b = L->b;
-    TSTART;
-    apply_filter(rc->eng, rc->f, L->v + (m - b) * n, L->w, L->rows, n);
-    TSTOP(0);
+    phks_status fst = apply_filter(rc->eng, rc->f, L->v + (m - b) * n, L->w,
+                                   L->rows, n);
+    if (fst != PHKS_OK)
+        return fst;
     double scale = 0;
     for (size_t j = 0; j < b; j++)
         scale = fmax(scale, cblas_dnrm2((int)n, L->w + j * n, 1));
-    {
-        TSTART2;
-        orthogonalise(L, m, L->w, (long)(m - b));
-        phks_status st = next_block(L, m, r, scale);
-        TSTOP2(1);
-        return st;
-    }
+    orthogonalise(L, m, L->w, (long)(m - b));
+    return next_block(L, m, r, scale);
 }
-
-/* Symmetrises T's last block column into the lower part. (T is used only
- * through its upper triangle; nothing to do.) */
 
 /* ----------------------------------------------------------- probe run */
 
 /* A short plain block Lanczos on B: an upper bound on lmax and the cut a
  * with about `target` eigenvalues below it (Gauss quadrature estimate of
  * the counting function from the random start block). */
-static phks_status probe(const engine *eng, const phks_options *opt, size_t k,
+static phks_status probe(engine *eng, const phks_options *opt, size_t k,
                          size_t target, double *lmax, double *cut)
 {
     size_t n = eng->op->n, b = BLOCK;
@@ -522,7 +496,7 @@ static phks_status probe(const engine *eng, const phks_options *opt, size_t k,
     phks_status st = allocate(&L, L.cap);
     double r[BLOCK * BLOCK], smallest;
     filter plain = {1, 0, 1};
-    run_ctx rc = {eng, &plain, opt, 0, 0, 0};
+    run_ctx rc = {eng, &plain};
     if (st == PHKS_OK) {
         random_block(L.v, n, b, 0);
         st = qr(&L, L.v, r, &smallest);
@@ -534,7 +508,7 @@ static phks_status probe(const engine *eng, const phks_options *opt, size_t k,
             break;
         memcpy(L.v + m * n, L.w, n * b * sizeof(double));
         m += b;
-        st = phks_progress(opt, PHKS_STAGE_EIGEN, 0.02 * (double)m / (double)L.cap);
+        eng->fraction = 0.02 * (double)m / (double)L.cap;
     }
     if (st == PHKS_OK)
         st = eig_t(&L, m, 1, m);
@@ -589,12 +563,17 @@ static phks_status rayleigh_ritz(lanczos *L, const engine *eng, size_t m,
         memset(y + q * n, 0, (qb - q) * n * sizeof(double));
     filter plain = {1, 0, 1};
     for (size_t j = 0; j < qb; j += b) {
-        apply_filter(eng, &plain, y + j * n, by + j * n, L->rows, n);
+        st = apply_filter(eng, &plain, y + j * n, by + j * n, L->rows, n);
+        if (st != PHKS_OK)
+            goto done;
         for (size_t i = 0; i < n * b; i++)
             by[j * n + i] = -by[j * n + i];
     }
     cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, (int)q, (int)q, (int)n,
                 1.0, y, (int)n, by, (int)n, 0.0, g, (int)q);
+    st = phks_progress(eng->opt, PHKS_STAGE_EIGEN, eng->fraction);
+    if (st != PHKS_OK)
+        goto done;
     for (size_t j = 0; j < q; j++) /* symmetrise */
         for (size_t i = 0; i < j; i++)
             g[j * q + i] = g[i * q + j] = 0.5 * (g[j * q + i] + g[i * q + j]);
@@ -606,6 +585,9 @@ static phks_status rayleigh_ritz(lanczos *L, const engine *eng, size_t m,
     }
     cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)n, (int)k,
                 (int)q, 1.0, y, (int)n, g, (int)q, 0.0, vectors, (int)n);
+    st = phks_progress(eng->opt, PHKS_STAGE_EIGEN, eng->fraction);
+    if (st != PHKS_OK)
+        goto done;
     /* residuals: B X - X Theta = (B Y) G_k - X Theta, into y */
     cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)n, (int)k,
                 (int)q, 1.0, by, (int)n, g, (int)q, 0.0, y, (int)n);
@@ -632,7 +614,7 @@ done:
 /* Lanczos on p(B) until the k lowest eigenpairs of B are found. Returns
  * PHKS_ERROR_NO_CONVERGENCE (without a message) when the cap is hit, and
  * sets *cut_low when the cut turned out to lie below lambda_k. */
-static phks_status solve(const engine *eng, const filter *f, size_t k,
+static phks_status solve(engine *eng, const filter *f, size_t k,
                          size_t guard, size_t cap, const phks_options *opt,
                          double lo, double hi, double *values, double *vectors,
                          bool *cut_low)
@@ -642,7 +624,7 @@ static phks_status solve(const engine *eng, const filter *f, size_t k,
     *cut_low = false;
     lanczos L = {.n = n, .k = k, .b = b, .cap = cap};
     phks_status st = allocate(&L, q + 4 * b);
-    run_ctx rc = {eng, f, opt, lo, hi, 0};
+    run_ctx rc = {eng, f};
     double r[BLOCK * BLOCK], smallest;
     if (st == PHKS_OK) {
         random_block(L.v, n, b, 1);
@@ -657,41 +639,45 @@ static phks_status solve(const engine *eng, const filter *f, size_t k,
      * its largest value, and the wanted vectors must be accurate to about
      * the tolerance relative to the gap between p at the guard and p at
      * lambda_k. */
-    double strict = knobf("LZ_STRICT", 0.1);
+    double strict = 0.1;
     while (st == PHKS_OK) {
         st = step(&L, &rc, m, r);
         if (st != PHKS_OK)
             break;
         if (m >= next_check || m + b > cap) {
-            TSTART;
-            st = eig_t(&L, m, m - q, m); /* top q + 1 */
-            TSTOP(2);
-#ifdef PHKS_LANCZOS_STATS
-            fprintf(stderr, "  check m=%zu", m);
-#endif
+            /* The Ritz pairs nearest the cut converge last: check those
+             * first (fewer vectors), then all q when they pass. */
+            size_t part = q - k + 2 * b < q ? q - k + 2 * b : q;
+            double excess = -INFINITY;
+            for (int round = 0; round < 2 && excess <= 0; round++) {
+                size_t upto = round == 0 ? part : q;
+                if (round == 1 && part == q)
+                    break;
+                /* theta[0] is the (q+1)-th largest */
+                st = eig_t(&L, m, m - q, m - q + upto);
+                if (st == PHKS_OK)
+                    st = phks_progress(opt, PHKS_STAGE_EIGEN, eng->fraction);
+                if (st != PHKS_OK)
+                    break;
+                double floor_mu = L.theta[0];
+                /* log of the largest ratio residual / threshold */
+                excess = -INFINITY;
+                for (size_t e = 1 + (q - k); e <= upto; e++) {
+                    double gap = L.theta[e] - floor_mu;
+                    double res = ritz_residual(&L, m, r, e);
+                    double x = gap > 0 ? log(res / (strict * opt->tolerance * gap))
+                                       : INFINITY;
+                    excess = isnan(x) ? INFINITY : fmax(excess, x);
+                }
+            }
             if (st != PHKS_OK)
                 break;
-            /* theta ascending: index 0 is the (q+1)-th largest */
-            double floor_mu = L.theta[0];
-            /* log of the largest ratio residual / threshold */
-            double excess = -INFINITY;
-            for (size_t e = 1 + (q - k); e <= q; e++) {
-                double gap = L.theta[e] - floor_mu;
-                double res = ritz_residual(&L, m, r, e);
-                double x = gap > 0 ? log(res / (strict * opt->tolerance * gap)) : INFINITY;
-                excess = isnan(x) ? INFINITY : fmax(excess, x);
-            }
             bool ok = excess <= 0;
-#ifdef PHKS_LANCZOS_STATS
-            fprintf(stderr, " excess %.2f\n", excess);
-#endif
             /* Ritz vectors of the top q are columns 1..q */
             if (ok) {
                 double worst = INFINITY;
                 memmove(L.ritz, L.ritz + m, q * m * sizeof(double));
-                TSTART2;
                 st = rayleigh_ritz(&L, eng, m, q, k, values, vectors, &worst);
-                TSTOP2(3);
                 if (st != PHKS_OK)
                     break;
                 if (f->degree > 1 && values[k - 1] >= f->c - f->e) {
@@ -726,10 +712,8 @@ static phks_status solve(const engine *eng, const filter *f, size_t k,
         memcpy(L.v + m * n, L.w, n * b * sizeof(double));
         m += b;
         double frac = (double)m / (double)(2 * q);
-        st = phks_progress(opt, PHKS_STAGE_EIGEN,
-                           lo + (hi - lo) * (frac < 1 ? frac : 1));
+        eng->fraction = lo + (hi - lo) * (frac < 1 ? frac : 1);
     }
-    STAT(phks_lanczos_basis = m);
     release(&L);
     return st;
 }
@@ -739,7 +723,6 @@ phks_status phks_eigen_lanczos(const phks_operator_matrix *op, size_t k,
                                double *vectors)
 {
     size_t n = op->n, b = BLOCK;
-    STAT(phks_lanczos_products = 0);
     /* Plain Lanczos may need a basis of up to about 12 k; Lanczos on the
      * filter about 2 k. When n leaves too little room, the dense solve is
      * exact and cheap. */
@@ -751,34 +734,27 @@ phks_status phks_eigen_lanczos(const phks_operator_matrix *op, size_t k,
     if (n < 8 * b || cap < k + guard + 4 * b ||
         (PROBE_STEPS + 1) * b > usable)
         return phks_eigen_dense(op, k, opt, values, vectors);
-    engine eng = {op, phks_thread_count(opt), false};
+    engine eng = {op, phks_thread_count(opt), false, opt, 0};
 #if HAVE_AVX2_KERNEL
     __builtin_cpu_init();
     eng.avx2 = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-    eng.avx2 = eng.avx2 && knob("LZ_AVX", 1);
 #endif
-    int degree = knob("LZ_DEGREE", 4);
+    int degree = DEGREE;
     double lmax = 0, cut = 0;
-    phks_status st = PHKS_OK;
+    phks_status st = PHKS_ERROR_NO_CONVERGENCE;
     bool cut_low = false;
     if (degree > 1) {
-        st = probe(&eng, opt, k, (size_t)((double)(k + guard) * knobf("LZ_MARGIN", 1.2)),
+        st = probe(&eng, opt, k, (size_t)((double)(k + guard) * CUT_MARGIN),
                    &lmax, &cut);
         if (st != PHKS_OK)
             return st;
-#ifdef PHKS_LANCZOS_STATS
-        fprintf(stderr, "probe: lmax %.1f (bound %.1f) cut %.1f\n", lmax, op->norm_bound, cut);
-#endif
+        st = PHKS_ERROR_NO_CONVERGENCE;
         for (int attempt = 0; attempt < 3 && cut < lmax; attempt++) {
             filter f = {degree, (lmax + cut) / 2, (lmax - cut) / 2};
             size_t fcap = 3 * (k + guard) + 8 * b;
             fcap = fcap < cap ? fcap : cap;
             st = solve(&eng, &f, k, guard, fcap, opt, 0.02, 0.9, values,
                        vectors, &cut_low);
-#ifdef PHKS_LANCZOS_STATS
-            fprintf(stderr, "filtered attempt %d: cut %.1f st %d cut_low %d basis %zu lamk %.1f\n",
-                    attempt, cut, (int)st, cut_low, phks_lanczos_basis, values[k - 1]);
-#endif
             if (st != PHKS_ERROR_NO_CONVERGENCE || !cut_low)
                 break;
             cut = cut + 2 * (values[k - 1] - cut) + 0.05 * (lmax - cut);
@@ -790,6 +766,9 @@ phks_status phks_eigen_lanczos(const phks_operator_matrix *op, size_t k,
     filter plain = {1, 0, 1};
     st = solve(&eng, &plain, k, guard, cap, opt, 0.02, 1, values, vectors,
                &cut_low);
+    /* Not expected on meshes; the dense solver is exact where it fits. */
+    if (st == PHKS_ERROR_NO_CONVERGENCE && n <= DENSE_FALLBACK_MAX_N)
+        return phks_eigen_dense(op, k, opt, values, vectors);
     if (st == PHKS_ERROR_NO_CONVERGENCE)
         return phks_fail(PHKS_ERROR_NO_CONVERGENCE,
                          "Lanczos: no convergence with a basis of %zu vectors",
