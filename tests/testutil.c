@@ -33,12 +33,6 @@ char *shared_mesh_path(const char *relative)
     return join(dir, relative);
 }
 
-char *test_data_path(const char *relative)
-{
-    const char *dir = getenv("PHKS_TEST_DATA");
-    return join(dir ? dir : "tests/data", relative);
-}
-
 double test_random(uint64_t *state)
 {
     uint64_t z = (*state += 0x9E3779B97F4A7C15ull);

@@ -13,8 +13,6 @@ int run_suite(Suite *suite);
 /* Path of a file under the shared meshes folder (../shared/data/meshes),
  * or NULL when that folder is absent; the caller frees with free(). */
 char *shared_mesh_path(const char *relative);
-/* Path of a file under tests/data; the caller frees with free(). */
-char *test_data_path(const char *relative);
 
 /* Uniform random double in [0,1) from a 64-bit state (splitmix64). */
 double test_random(uint64_t *state);
