@@ -363,11 +363,19 @@ typedef struct phks_maximum {
  * Mesh-boundary edges are ignored; a non-manifold edge joins all its
  * triangles.
  * out (room for min(max_count, triangle_count) entries) receives the
- * surviving maxima, most persistent first; *count their number.
- * region_of_triangle, if not NULL, receives for each triangle the index in
- * out of its region: the segmentation. Errors: PHKS_ERROR_INVALID_ARGUMENT
- * (NULL, max_count 0, negative or NaN threshold), PHKS_ERROR_NON_FINITE
- * (in f), PHKS_ERROR_OUT_OF_MEMORY. Thread-safe. */
+ * surviving maxima, most persistent first; *count their number (0 on
+ * error). region_of_triangle, if not NULL, receives for each triangle the
+ * index in out of its region: the segmentation.
+ * Regions merge only across shared edges, so every edge-connected piece
+ * keeps one maximum of infinite persistence (two triangles touching at a
+ * single vertex are two pieces here, though phks_mesh_component_count
+ * counts them as one component). With more pieces than max_count, the
+ * max_count whose central triangles come last in the filtration are
+ * reported and the other triangles are labelled UINT32_MAX. The vertex of
+ * a maximum breaks ties in f by the larger index.
+ * Errors: PHKS_ERROR_INVALID_ARGUMENT (NULL, max_count 0, negative or NaN
+ * threshold), PHKS_ERROR_NON_FINITE (in f), PHKS_ERROR_OUT_OF_MEMORY.
+ * Thread-safe. */
 PHKS_API phks_status phks_persistent_maxima(const phks_mesh *mesh,
                                             const double *f, size_t max_count,
                                             double threshold, phks_maximum *out,
