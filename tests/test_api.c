@@ -112,31 +112,6 @@ START_TEST(bad_options_are_refused)
 }
 END_TEST
 
-/* A counting allocator that fails on request. */
-static size_t live, calls, fail_at;
-static void *count_malloc(void *u, size_t n)
-{
-    (void)u;
-    if (++calls == fail_at)
-        return NULL;
-    void *p = malloc(n);
-    live += p != NULL;
-    return p;
-}
-static void *count_realloc(void *u, void *p, size_t n)
-{
-    (void)u;
-    if (++calls == fail_at)
-        return NULL;
-    return realloc(p, n);
-}
-static void count_free(void *u, void *p)
-{
-    (void)u;
-    live -= p != NULL;
-    free(p);
-}
-
 /* Failing the i-th allocation of a mesh build, for every i, gives
  * PHKS_ERROR_OUT_OF_MEMORY and leaks nothing. */
 START_TEST(allocator_hook_sees_every_allocation)
@@ -146,15 +121,15 @@ START_TEST(allocator_hook_sees_every_allocation)
     const double xyz[12] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1};
     const uint32_t tri[12] = {0, 2, 1, 0, 1, 3, 1, 2, 3, 0, 3, 2};
     phks_mesh *m;
-    fail_at = 0;
-    calls = live = 0;
+    alloc_fail_at = -1;
+    alloc_calls = alloc_live = 0;
     ck_assert_int_eq(phks_mesh_create(xyz, 4, tri, 4, &m), PHKS_OK);
-    size_t total = calls;
-    ck_assert_uint_gt(live, 0);
+    long total = alloc_calls;
+    ck_assert_uint_gt(alloc_live, 0);
     phks_mesh_free(m);
-    ck_assert_uint_eq(live, 0);
-    for (fail_at = 1; fail_at <= total; fail_at++) {
-        calls = 0;
+    ck_assert_uint_eq(alloc_live, 0);
+    for (alloc_fail_at = 0; alloc_fail_at < total; alloc_fail_at++) {
+        alloc_calls = 0;
         m = (phks_mesh *)1;
         phks_status st = phks_mesh_create(xyz, 4, tri, 4, &m);
         if (st == PHKS_OK) { /* a failed shrinking realloc is harmless */
@@ -163,8 +138,9 @@ START_TEST(allocator_hook_sees_every_allocation)
             ck_assert_int_eq(st, PHKS_ERROR_OUT_OF_MEMORY);
             ck_assert_ptr_null(m);
         }
-        ck_assert_uint_eq(live, 0);
+        ck_assert_uint_eq(alloc_live, 0);
     }
+    alloc_fail_at = -1;
     ck_assert_int_eq(phks_set_allocator(NULL), PHKS_OK);
     phks_allocator half = {count_malloc, NULL, count_free, NULL};
     ck_assert_int_eq(phks_set_allocator(&half), PHKS_ERROR_INVALID_ARGUMENT);

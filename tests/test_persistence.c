@@ -20,7 +20,7 @@
  * (hbar, index); edge (hbar, index) with edges numbered as the unique
  * vertex pairs sorted by (lower vertex, higher vertex).
  */
-#include "testutil.h"
+#include "soup.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -28,71 +28,10 @@
 #include <string.h>
 
 #define NIL UINT32_MAX
-#define PI 3.14159265358979323846
-
-/* Every ck_assert reports to Check's parent process through a pipe, which
- * costs a system call; the oracle comparisons check millions of facts, so
- * they fail through these instead. */
-#define REQUIRE(c) \
-    do { \
-        if (!(c)) \
-            ck_abort_msg("line %d: %s", __LINE__, #c); \
-    } while (0)
-#define REQUIRE_MSG(c, ...) \
-    do { \
-        if (!(c)) \
-            ck_abort_msg(__VA_ARGS__); \
-    } while (0)
 
 /* =====================================================================
  * Meshes
  * ===================================================================== */
-
-typedef struct {
-    double *xyz;
-    size_t nv, cap_v;
-    uint32_t *tri;
-    size_t nt, cap_t;
-} soup;
-
-static uint32_t soup_vertex(soup *s, double x, double y, double z)
-{
-    if (s->nv == s->cap_v) {
-        s->cap_v = s->cap_v ? 2 * s->cap_v : 64;
-        s->xyz = realloc(s->xyz, s->cap_v * 3 * sizeof *s->xyz);
-        REQUIRE(s->xyz);
-    }
-    s->xyz[3 * s->nv] = x;
-    s->xyz[3 * s->nv + 1] = y;
-    s->xyz[3 * s->nv + 2] = z;
-    return (uint32_t)s->nv++;
-}
-
-static void soup_triangle(soup *s, uint32_t a, uint32_t b, uint32_t c)
-{
-    if (s->nt == s->cap_t) {
-        s->cap_t = s->cap_t ? 2 * s->cap_t : 64;
-        s->tri = realloc(s->tri, s->cap_t * 3 * sizeof *s->tri);
-        REQUIRE(s->tri);
-    }
-    s->tri[3 * s->nt] = a;
-    s->tri[3 * s->nt + 1] = b;
-    s->tri[3 * s->nt + 2] = c;
-    s->nt++;
-}
-
-/* Makes the mesh and frees the soup. No triangle may be dropped. */
-static phks_mesh *soup_mesh(soup *s)
-{
-    phks_mesh *mesh = NULL;
-    phks_status st = phks_mesh_create(s->xyz, s->nv, s->tri, s->nt, &mesh);
-    REQUIRE_MSG(st == PHKS_OK, "mesh: %s", phks_last_error_message());
-    REQUIRE((phks_mesh_triangle_count(mesh)) == (s->nt));
-    free(s->xyz);
-    free(s->tri);
-    *s = (soup){0};
-    return mesh;
-}
 
 /* A planar grid of nx * ny cells at height z, offset by (ox, oy); keep
  * (row-major, NULL = all) says which cells get their two triangles. The
@@ -120,26 +59,11 @@ static void add_grid(soup *s, size_t nx, size_t ny, double ox, double oy,
         }
 }
 
-/* A closed torus of nu * nv quads (genus 1, no boundary). */
-static void add_torus(soup *s, size_t nu, size_t nv, double ox)
+/* A closed torus of nu * nv quads, radii 3 and 1 (genus 1, no boundary). */
+static void add_exact_torus(soup *s, size_t nu, size_t nv)
 {
-    uint32_t base = (uint32_t)s->nv;
-    for (size_t u = 0; u < nu; u++)
-        for (size_t v = 0; v < nv; v++) {
-            double a = 2 * PI * (double)u / (double)nu;
-            double b = 2 * PI * (double)v / (double)nv;
-            soup_vertex(s, ox + (3 + cos(b)) * cos(a), (3 + cos(b)) * sin(a),
-                        sin(b));
-        }
-    for (size_t u = 0; u < nu; u++)
-        for (size_t v = 0; v < nv; v++) {
-            uint32_t a = base + (uint32_t)(u * nv + v);
-            uint32_t b = base + (uint32_t)(((u + 1) % nu) * nv + v);
-            uint32_t c = base + (uint32_t)(((u + 1) % nu) * nv + (v + 1) % nv);
-            uint32_t d = base + (uint32_t)(u * nv + (v + 1) % nv);
-            soup_triangle(s, a, b, c);
-            soup_triangle(s, a, c, d);
-        }
+    uint64_t unused = 0; /* no jitter, so the random numbers do not count */
+    add_torus(s, nu, nv, 3, 1, 0, &unused);
 }
 
 /* A closed sphere: the octahedron with each triangle split in four
@@ -710,7 +634,7 @@ START_TEST(test_arguments)
 {
     soup s = {0};
     add_grid(&s, 2, 2, 0, 0, 0, NULL);
-    phks_mesh *mesh = soup_mesh(&s);
+    phks_mesh *mesh = soup_mesh_take(&s);
     double f[9] = {0, 1, 2, 3, 4, 5, 6, 7, 8};
     phks_maximum out[8];
     size_t count = 99;
@@ -783,7 +707,7 @@ START_TEST(test_book_by_hand)
 {
     soup s = {0};
     add_book(&s, 3);
-    phks_mesh *mesh = soup_mesh(&s);
+    phks_mesh *mesh = soup_mesh_take(&s);
     const double f[5] = {0, 1, 5, 4, 3};
     phks_maximum out[3];
     uint32_t label[3];
@@ -827,7 +751,7 @@ START_TEST(test_octahedron_by_hand)
 {
     soup s = {0};
     add_sphere(&s, 0, 0); /* vertices +x -x +y -y +z -z */
-    phks_mesh *mesh = soup_mesh(&s);
+    phks_mesh *mesh = soup_mesh_take(&s);
     const double f[6] = {0, 2, 1, 3, 10, 9};
     phks_maximum out[8];
     uint32_t label[8];
@@ -912,7 +836,7 @@ static phks_mesh *make_mesh(int kind, uint64_t seed, const char **name)
         break;
     case M_TORUS:
         *name = "torus";
-        add_torus(&s, 8, 5, 0);
+        add_exact_torus(&s, 8, 5);
         break;
     case M_TWO:
         *name = "two components";
@@ -941,7 +865,7 @@ static phks_mesh *make_mesh(int kind, uint64_t seed, const char **name)
         break;
     }
     }
-    return soup_mesh(&s);
+    return soup_mesh_take(&s);
 }
 
 START_TEST(test_random_against_oracles)
@@ -975,10 +899,10 @@ START_TEST(test_larger_meshes)
         if (i == 0)
             add_grid(&s, 50, 40, 0, 0, 0, NULL);
         else if (i == 1)
-            add_torus(&s, 60, 40, 0);
+            add_exact_torus(&s, 60, 40);
         else
             add_strip_book(&s, 5, 10, 30);
-        phks_mesh *mesh = soup_mesh(&s);
+        phks_mesh *mesh = soup_mesh_take(&s);
         const int kinds[3] = {F_SMOOTH, F_TIED3, F_UNIFORM};
         for (int k = 0; k < 3; k++)
             check_function(mesh, kinds[k], (uint64_t)(7 + i), 0, names[i]);
@@ -990,8 +914,8 @@ END_TEST
 START_TEST(test_deterministic)
 {
     soup s = {0};
-    add_torus(&s, 12, 9, 0);
-    phks_mesh *mesh = soup_mesh(&s);
+    add_exact_torus(&s, 12, 9);
+    phks_mesh *mesh = soup_mesh_take(&s);
     size_t nt = phks_mesh_triangle_count(mesh);
     for (int kind = 0; kind < F_KINDS; kind++) {
         double *f = make_function(mesh, kind, 5);
@@ -1016,34 +940,8 @@ START_TEST(test_deterministic)
 }
 END_TEST
 
-/* An allocator that fails the n-th request and counts live blocks. */
-static long alloc_calls, alloc_fail_at = -1, alloc_live;
-
-static void *count_malloc(void *user, size_t size)
-{
-    (void)user;
-    if (alloc_calls++ == alloc_fail_at)
-        return NULL;
-    void *p = malloc(size);
-    alloc_live += p != NULL;
-    return p;
-}
-
-static void *count_realloc(void *user, void *ptr, size_t size)
-{
-    (void)user;
-    if (alloc_calls++ == alloc_fail_at)
-        return NULL;
-    return realloc(ptr, size);
-}
-
-static void count_free(void *user, void *ptr)
-{
-    (void)user;
-    alloc_live--;
-    free(ptr);
-}
-
+/* The counting allocator (testutil.h) fails request n = 0, 1, ... in turn:
+ * out of memory and nothing leaked, until the call succeeds. */
 START_TEST(test_out_of_memory)
 {
     const phks_allocator counting = {count_malloc, count_realloc, count_free,
@@ -1051,7 +949,7 @@ START_TEST(test_out_of_memory)
     ck_assert_int_eq(phks_set_allocator(&counting), PHKS_OK);
     soup s = {0};
     add_grid(&s, 6, 5, 0, 0, 0, NULL);
-    phks_mesh *mesh = soup_mesh(&s);
+    phks_mesh *mesh = soup_mesh_take(&s);
     double *f = make_function(mesh, F_UNIFORM, 3);
     phks_maximum out[5];
     uint32_t label[60];

@@ -1312,45 +1312,18 @@ END_TEST
 
 /* ------------------------------------------------ allocation failures */
 
-static size_t alloc_budget, alloc_live;
-
-static void *counting_malloc(void *user, size_t size)
-{
-    (void)user;
-    if (alloc_budget == 0)
-        return NULL;
-    alloc_budget--;
-    void *p = malloc(size);
-    alloc_live += p != NULL;
-    return p;
-}
-
-static void *counting_realloc(void *user, void *ptr, size_t size)
-{
-    (void)user;
-    if (alloc_budget == 0)
-        return NULL;
-    alloc_budget--;
-    return realloc(ptr, size);
-}
-
-static void counting_free(void *user, void *ptr)
-{
-    (void)user;
-    alloc_live -= ptr != NULL;
-    free(ptr);
-}
-
-/* Fails the first, second, ... allocation until the load succeeds: every
- * failure must say "out of memory" and leave nothing allocated. */
+/* Fails the first, second, ... allocation, and every one after it, until
+ * the load succeeds: every failure must say "out of memory" and leave
+ * nothing allocated (the counting allocator of testutil.h). */
 static void sweep_failures(const void *data, size_t size)
 {
-    phks_allocator counting = {counting_malloc, counting_realloc, counting_free,
-                               NULL};
+    phks_allocator counting = {count_malloc, count_realloc, count_free, NULL};
     ck_assert_int_eq(phks_set_allocator(&counting), PHKS_OK);
+    alloc_fail_rest = true;
     for (size_t budget = 0;; budget++) {
         ck_assert_uint_lt(budget, 1000);
-        alloc_budget = budget;
+        alloc_calls = 0;
+        alloc_fail_at = (long)budget;
         alloc_live = 0;
         phks_mesh *mesh;
         phks_status st = phks_mesh_load_memory(data, size, PHKS_FORMAT_AUTO, &mesh);
@@ -1364,6 +1337,8 @@ static void sweep_failures(const void *data, size_t size)
         ck_assert_uint_eq(alloc_live, 0);
         ck_assert_ptr_null(mesh);
     }
+    alloc_fail_at = -1;
+    alloc_fail_rest = false;
     phks_set_allocator(NULL);
 }
 

@@ -25,27 +25,13 @@
  * of polynomials of degree l. The dense solver gets 4 subdivisions (see
  * test_dense for why, and its tolerances).
  */
-#include "testutil.h"
+#include "soup.h"
 
 #include <lapacke.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
-
-#define PI 3.14159265358979323846
-
-#define REQUIRE(c)                                                            \
-    do {                                                                      \
-        if (!(c))                                                             \
-            ck_abort_msg("line %d: %s", __LINE__, #c);                        \
-    } while (0)
-#define REQUIRE_MSG(c, ...)                                                   \
-    do {                                                                      \
-        if (!(c))                                                             \
-            ck_abort_msg(__VA_ARGS__);                                        \
-    } while (0)
 
 /* l <= LMAX_CHECK is compared with mu_l; l = LMAX_CHECK + 1 is computed
  * completely so that the cut at eigen_count never splits a cluster and
@@ -53,101 +39,6 @@
 #define LMAX_CHECK 6
 #define EIGEN_COUNT ((LMAX_CHECK + 2) * (LMAX_CHECK + 2))
 #define REL_TOL 0.005
-
-/* =====================================================================
- * Icosphere, independent of examples/shapes.c
- * ===================================================================== */
-
-typedef struct {
-    double *xyz;
-    size_t nv;
-    uint32_t *tri;
-    size_t nt;
-} sphere_mesh;
-
-typedef struct {
-    uint64_t *keys;
-    uint32_t *ids;
-    size_t mask;
-} edge_map;
-
-/* The midpoint vertex of edge {a, b}, made on first use. */
-static uint32_t midpoint(edge_map *map, double *xyz, size_t *nv, uint32_t a,
-                         uint32_t b)
-{
-    uint64_t key = (a < b ? (uint64_t)a << 32 | b : (uint64_t)b << 32 | a) + 1;
-    size_t i = (size_t)((key * 0x9E3779B97F4A7C15ull) >> 17) & map->mask;
-    while (map->keys[i] && map->keys[i] != key)
-        i = (i + 1) & map->mask;
-    if (map->keys[i])
-        return map->ids[i];
-    map->keys[i] = key;
-    uint32_t m = (uint32_t)(*nv)++;
-    map->ids[i] = m;
-    double len = 0;
-    for (int d = 0; d < 3; d++) {
-        xyz[3 * m + d] = xyz[3 * a + d] + xyz[3 * b + d];
-        len += xyz[3 * m + d] * xyz[3 * m + d];
-    }
-    for (int d = 0; d < 3; d++)
-        xyz[3 * m + d] /= sqrt(len);
-    return m;
-}
-
-/* Unit icosphere with `subdiv` subdivisions, then scaled by radius and
- * moved to center. */
-static sphere_mesh icosphere(unsigned subdiv, double radius,
-                             const double center[3])
-{
-    const double g = (1 + sqrt(5.0)) / 2;
-    const double base[12][3] = {{-1, g, 0}, {1, g, 0},   {-1, -g, 0}, {1, -g, 0},
-                                {0, -1, g}, {0, 1, g},   {0, -1, -g}, {0, 1, -g},
-                                {g, 0, -1}, {g, 0, 1},   {-g, 0, -1}, {-g, 0, 1}};
-    const uint32_t faces[20][3] = {
-        {0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11},
-        {1, 5, 9},  {5, 11, 4}, {11, 10, 2}, {10, 7, 6}, {7, 1, 8},
-        {3, 9, 4},  {3, 4, 2},  {3, 2, 6},   {3, 6, 8},  {3, 8, 9},
-        {4, 9, 5},  {2, 4, 11}, {6, 2, 10},  {8, 6, 7},  {9, 8, 1}};
-    size_t nt_final = (size_t)20 << (2 * subdiv);
-    size_t nv_final = nt_final / 2 + 2;
-    sphere_mesh m = {malloc(3 * nv_final * sizeof(double)), 12,
-                     malloc(3 * nt_final * sizeof(uint32_t)), 20};
-    REQUIRE(m.xyz && m.tri);
-    for (int i = 0; i < 12; i++) {
-        double len = sqrt(1 + g * g);
-        for (int d = 0; d < 3; d++)
-            m.xyz[3 * i + d] = base[i][d] / len;
-    }
-    memcpy(m.tri, faces, sizeof faces);
-    for (unsigned level = 0; level < subdiv; level++) {
-        size_t size = 1;
-        while (size < 4 * 3 * m.nt)
-            size *= 2;
-        edge_map map = {calloc(size, sizeof(uint64_t)),
-                        malloc(size * sizeof(uint32_t)), size - 1};
-        uint32_t *next = malloc(4 * 3 * m.nt * sizeof(uint32_t));
-        REQUIRE(map.keys && map.ids && next);
-        for (size_t f = 0; f < m.nt; f++) {
-            uint32_t v[3] = {m.tri[3 * f], m.tri[3 * f + 1], m.tri[3 * f + 2]};
-            uint32_t mid[3];
-            for (int k = 0; k < 3; k++)
-                mid[k] = midpoint(&map, m.xyz, &m.nv, v[k], v[(k + 1) % 3]);
-            uint32_t sub[12] = {v[0],   mid[0], mid[2], mid[0], v[1],   mid[1],
-                                mid[2], mid[1], v[2],   mid[0], mid[1], mid[2]};
-            memcpy(next + 12 * f, sub, sizeof sub);
-        }
-        free(map.keys);
-        free(map.ids);
-        free(m.tri);
-        m.tri = next;
-        m.nt *= 4;
-    }
-    REQUIRE(m.nv == nv_final && m.nt == nt_final);
-    for (size_t v = 0; v < m.nv; v++)
-        for (int d = 0; d < 3; d++)
-            m.xyz[3 * v + d] = center[d] + radius * m.xyz[3 * v + d];
-    return m;
-}
 
 /* =====================================================================
  * The Funk-Hecke oracle
@@ -225,13 +116,6 @@ static double funk_hecke(int l, double R, double h, double r)
 /* =====================================================================
  * Helpers
  * ===================================================================== */
-
-static double now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
 
 /* Normalised radius: the generated sphere's radius over the longest side of
  * its axis-aligned bounding box, both measured from the vertices. */
@@ -315,13 +199,17 @@ static void check_sphere(unsigned subdiv, double tau, double tol_high_l,
                          int solver, const char *name)
 {
     const double center[3] = {0.3, -1.1, 2.0}, radius = 1.7;
-    sphere_mesh sm = icosphere(subdiv, radius, center);
+    const double axes[3] = {radius, radius, radius};
+    uint64_t rng = 0; /* unused: noise 0 gives the exact sphere */
+    soup sm = {0};
+    add_icosphere(&sm, subdiv, center, axes, 0, &rng);
+    size_t nt_final = (size_t)20 << (2 * subdiv);
+    REQUIRE(sm.nv == nt_final / 2 + 2 && sm.nt == nt_final);
     phks_mesh *mesh = NULL;
     REQUIRE_MSG(phks_mesh_create(sm.xyz, sm.nv, sm.tri, sm.nt, &mesh) == PHKS_OK,
                 "mesh: %s", phks_last_error_message());
     REQUIRE(phks_mesh_vertex_count(mesh) == sm.nv);
-    free(sm.xyz);
-    free(sm.tri);
+    soup_free(&sm);
     size_t n = phks_mesh_vertex_count(mesh);
 
     phks_options opt;

@@ -1,10 +1,12 @@
 /* testutil.c - helpers shared by the test suites. */
 #include "testutil.h"
 
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <time.h>
 
 int run_suite(Suite *suite)
 {
@@ -40,4 +42,60 @@ double test_random(uint64_t *state)
     z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
     z ^= z >> 31;
     return (double)(z >> 11) * 0x1.0p-53;
+}
+
+double now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+double axis_aligned_scale(const phks_mesh *mesh)
+{
+    size_t n = phks_mesh_vertex_count(mesh);
+    const double *xyz = phks_mesh_vertices(mesh);
+    double lo[3] = {INFINITY, INFINITY, INFINITY},
+           hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (size_t v = 0; v < n; v++)
+        for (int d = 0; d < 3; d++) {
+            lo[d] = fmin(lo[d], xyz[3 * v + d]);
+            hi[d] = fmax(hi[d], xyz[3 * v + d]);
+        }
+    return 1 / fmax(hi[0] - lo[0], fmax(hi[1] - lo[1], hi[2] - lo[2]));
+}
+
+long alloc_live, alloc_calls, alloc_fail_at = -1;
+bool alloc_fail_rest;
+
+static bool refuse(void)
+{
+    long request = alloc_calls++;
+    return alloc_fail_at >= 0 &&
+           (request == alloc_fail_at || (alloc_fail_rest && request > alloc_fail_at));
+}
+
+void *count_malloc(void *user, size_t size)
+{
+    (void)user;
+    if (refuse())
+        return NULL;
+    void *p = malloc(size);
+    alloc_live += p != NULL;
+    return p;
+}
+
+void *count_realloc(void *user, void *ptr, size_t size)
+{
+    (void)user;
+    if (refuse())
+        return NULL;
+    return realloc(ptr, size);
+}
+
+void count_free(void *user, void *ptr)
+{
+    (void)user;
+    alloc_live -= ptr != NULL;
+    free(ptr);
 }

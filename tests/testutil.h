@@ -5,7 +5,23 @@
 #include "internal.h"
 
 #include <check.h>
+#include <stdbool.h>
 #include <stddef.h>
+
+#define PI 3.14159265358979323846
+
+/* Assertions for hot loops: ck_assert reports to Check's parent process
+ * through a pipe (a system call per check), these only when they fail. */
+#define REQUIRE(c)                                                            \
+    do {                                                                      \
+        if (!(c))                                                             \
+            ck_abort_msg("line %d: %s", __LINE__, #c);                        \
+    } while (0)
+#define REQUIRE_MSG(c, ...)                                                   \
+    do {                                                                      \
+        if (!(c))                                                             \
+            ck_abort_msg(__VA_ARGS__);                                        \
+    } while (0)
 
 /* Runs a suite, returns the process exit status (0 when all passed). */
 int run_suite(Suite *suite);
@@ -16,5 +32,22 @@ char *shared_mesh_path(const char *relative);
 
 /* Uniform random double in [0,1) from a 64-bit state (splitmix64). */
 double test_random(uint64_t *state);
+
+/* Seconds on the monotonic clock, for timing. */
+double now(void);
+
+/* 1 / longest side of the axis-aligned box of the mesh's vertices. */
+double axis_aligned_scale(const phks_mesh *mesh);
+
+/* A counting allocator for phks_set_allocator: {count_malloc,
+ * count_realloc, count_free, NULL}. alloc_live counts the blocks held;
+ * alloc_calls numbers the malloc and realloc requests from 0. Request
+ * alloc_fail_at fails (-1: none), and with alloc_fail_rest so does every
+ * later one. */
+extern long alloc_live, alloc_calls, alloc_fail_at;
+extern bool alloc_fail_rest;
+void *count_malloc(void *user, size_t size);
+void *count_realloc(void *user, void *ptr, size_t size);
+void count_free(void *user, void *ptr);
 
 #endif
