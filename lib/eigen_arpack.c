@@ -16,18 +16,6 @@
 
 static pthread_mutex_t arpack_lock = PTHREAD_MUTEX_INITIALIZER;
 
-/* ARPACK's own random start vector comes from a generator whose seed
- * carries over between calls, which would make results depend on what ran
- * before; this fixed one does not. */
-static void start_vector(double *v, size_t n)
-{
-    uint64_t s = 0x5DEECE66Dull;
-    for (size_t i = 0; i < n; i++) {
-        s = s * 6364136223846793005ull + 1442695040888963407ull;
-        v[i] = (double)(s >> 11) * 0x1.0p-53 - 0.5;
-    }
-}
-
 typedef struct {
     a_int ncv, lworkl;
     double *resid, *v, *workd, *workl, *d;
@@ -98,7 +86,7 @@ phks_status phks_eigen_arpack(const phks_operator_matrix *op, size_t k,
         release(&w);
         return phks_fail_oom("ARPACK workspace");
     }
-    start_vector(w.resid, n);
+    phks_random_fill(w.resid, n, 0x5DEECE66Dull);
     a_int iparam[11] = {0}, ipntr[14] = {0};
     iparam[0] = 1;            /* exact shifts */
     iparam[2] = MAX_RESTARTS;

@@ -303,11 +303,7 @@ static phks_status allocate(lanczos *L, size_t first)
 /* A fixed pseudo-random block, so that every run starts alike. */
 static void random_block(double *w, size_t n, size_t b, uint64_t seed)
 {
-    uint64_t s = seed * 0x9E3779B97F4A7C15ull + 1;
-    for (size_t i = 0; i < n * b; i++) {
-        s = s * 6364136223846793005ull + 1442695040888963407ull;
-        w[i] = (double)(s >> 11) * 0x1.0p-53 - 0.5;
-    }
+    phks_random_fill(w, n * b, seed * 0x9E3779B97F4A7C15ull + 1);
 }
 
 /* One classical Gram-Schmidt pass of W against V[:, lo:m]; when col >= 0

@@ -73,6 +73,9 @@ struct phks_mesh {
     uint32_t *vertex_component;
 };
 
+/* Area of the triangle with corners a, b, c (3 doubles each). */
+double phks_triangle_area(const double *a, const double *b, const double *c);
+
 /* Builds a mesh from arrays the caller keeps ownership of. vertex_origin
  * may be NULL (identity). Cleans as phks_mesh_create documents. */
 phks_status phks_mesh_build(const double *xyz, size_t vertex_count,
@@ -191,6 +194,12 @@ typedef void (*phks_range_fn)(void *ctx, size_t begin, size_t end);
 void phks_parallel_for(size_t n, unsigned threads, phks_range_fn fn, void *ctx);
 /* threads option resolved: 0 means the number of online CPUs. */
 unsigned phks_thread_count(const phks_options *opt);
+
+/* ---- deterministic start vectors (random.c) */
+/* Fills v with n numbers in [-0.5, 0.5) from a fixed generator started at
+ * `state`: the solvers start from the same vectors on every run, so
+ * results never depend on what ran before. */
+void phks_random_fill(double *v, size_t n, uint64_t state);
 
 /* ---- checksum (crc32.c via zlib) */
 uint32_t phks_crc32(const void *data, size_t size);

@@ -114,7 +114,7 @@ void phks_operator_release(phks_operator_matrix *op)
 
 /* Turns the stored A_p W(w,p) into entries of B (see the top comment). */
 static void finish_values(phks_operator_matrix *op, const double *area,
-                          const double *density, double c)
+                          double c)
 {
     double bound = 0;
     for (size_t w = 0; w < op->n; w++) {
@@ -188,7 +188,7 @@ phks_status phks_operator_build(const phks_mesh *mesh, const phks_options *opt,
         op->mass[w] = opt->operator_kind == PHKS_OPERATOR_RANDOM_WALK
                           ? area[w] * density[w] / (4 * PHKS_PI * h)
                           : area[w];
-    finish_values(op, area, density, 1 / (4 * PHKS_PI * h * h));
+    finish_values(op, area, 1 / (4 * PHKS_PI * h * h));
     st = phks_progress(opt, PHKS_STAGE_OPERATOR, 1);
 done:
     phks_grid_release(&grid);

@@ -19,7 +19,7 @@
  * edge structure. */
 #define DEGENERATE_AREA 1e-12
 
-static double triangle_area(const double *a, const double *b, const double *c)
+double phks_triangle_area(const double *a, const double *b, const double *c)
 {
     double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
     double v[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
@@ -106,7 +106,7 @@ static phks_status compact(phks_mesh *m, const double *xyz, size_t vertex_count,
         const uint32_t *c = triangles + 3 * t;
         if (c[0] == c[1] || c[1] == c[2] || c[0] == c[2])
             continue;
-        double a = triangle_area(xyz + 3 * c[0], xyz + 3 * c[1], xyz + 3 * c[2]);
+        double a = phks_triangle_area(xyz + 3 * c[0], xyz + 3 * c[1], xyz + 3 * c[2]);
         if (!(a > min_area))
             continue;
         area += a;

@@ -8,19 +8,11 @@
 #include <lapacke.h>
 #include <math.h>
 
-static double triangle_area(const double *a, const double *b, const double *c,
-                            double *centroid)
+static void centroid(const double *a, const double *b, const double *c,
+                     double *g)
 {
-    double u[3], v[3];
-    for (int d = 0; d < 3; d++) {
-        u[d] = b[d] - a[d];
-        v[d] = c[d] - a[d];
-        if (centroid)
-            centroid[d] = (a[d] + b[d] + c[d]) / 3;
-    }
-    double n0 = u[1] * v[2] - u[2] * v[1], n1 = u[2] * v[0] - u[0] * v[2],
-           n2 = u[0] * v[1] - u[1] * v[0];
-    return 0.5 * sqrt(n0 * n0 + n1 * n1 + n2 * n2);
+    for (int d = 0; d < 3; d++)
+        g[d] = (a[d] + b[d] + c[d]) / 3;
 }
 
 /* Principal axes of the surface (area-weighted covariance of triangle
@@ -30,9 +22,10 @@ static phks_status principal_axes(const phks_mesh *m, double axes[9])
     double mean[3] = {0, 0, 0}, total = 0;
     for (size_t t = 0; t < m->triangle_count; t++) {
         const uint32_t *c = m->triangles + 3 * t;
-        double g[3];
-        double a = triangle_area(m->xyz + 3 * c[0], m->xyz + 3 * c[1],
-                                 m->xyz + 3 * c[2], g);
+        const double *p = m->xyz + 3 * c[0], *q = m->xyz + 3 * c[1],
+                     *r = m->xyz + 3 * c[2];
+        double g[3], a = phks_triangle_area(p, q, r);
+        centroid(p, q, r, g);
         total += a;
         for (int d = 0; d < 3; d++)
             mean[d] += a * g[d];
@@ -42,9 +35,10 @@ static phks_status principal_axes(const phks_mesh *m, double axes[9])
     double cov[9] = {0};
     for (size_t t = 0; t < m->triangle_count; t++) {
         const uint32_t *c = m->triangles + 3 * t;
-        double g[3];
-        double a = triangle_area(m->xyz + 3 * c[0], m->xyz + 3 * c[1],
-                                 m->xyz + 3 * c[2], g);
+        const double *p = m->xyz + 3 * c[0], *q = m->xyz + 3 * c[1],
+                     *r = m->xyz + 3 * c[2];
+        double g[3], a = phks_triangle_area(p, q, r);
+        centroid(p, q, r, g);
         for (int i = 0; i < 3; i++)
             for (int j = 0; j < 3; j++)
                 cov[3 * i + j] += a * (g[i] - mean[i]) * (g[j] - mean[j]);
@@ -88,8 +82,8 @@ void phks_vertex_areas(const phks_mesh *m, double scale, double *mass)
         mass[v] = 0;
     for (size_t t = 0; t < m->triangle_count; t++) {
         const uint32_t *c = m->triangles + 3 * t;
-        double a = triangle_area(m->xyz + 3 * c[0], m->xyz + 3 * c[1],
-                                 m->xyz + 3 * c[2], NULL) *
+        double a = phks_triangle_area(m->xyz + 3 * c[0], m->xyz + 3 * c[1],
+                                      m->xyz + 3 * c[2]) *
                    scale * scale / 3;
         mass[c[0]] += a;
         mass[c[1]] += a;
