@@ -137,8 +137,12 @@ PHKS_API phks_status phks_set_allocator(const phks_allocator *allocator);
  * =====================================================================
  * The parameters of the method. Always start from phks_options_init(), then
  * change fields. The struct has a fixed size for the whole ABI version: new
- * fields are carved out of `reserved`, and phks_options_init() gives them
- * values that keep the older behaviour unless the new field is set.
+ * fields are carved out of `reserved`, where zero means the paper's
+ * behaviour. phks_options_init() gives the library's recommended values,
+ * which may depart from the paper where measurements say so (the CHANGELOG
+ * records every change of default); signatures record every field that
+ * shapes their numbers, so a changed default never mixes incomparable
+ * signatures.
  */
 #define PHKS_OPTIONS_VERSION 1
 #define PHKS_MAX_SCALES 32
@@ -162,6 +166,17 @@ typedef enum phks_box {
      * choice; changes when the input is rotated). */
     PHKS_BOX_AXIS_ALIGNED = 1
 } phks_box;
+
+/* How HKS values are scaled before they are compared. */
+typedef enum phks_hks_scaling {
+    /* The paper's HKS_t(x) = sum_i exp(-t lambda_i) phi_i(x)^2. */
+    PHKS_HKS_SCALING_NONE = 0,
+    /* HKS_t(x) divided by its mass-weighted mean over the mesh, which is
+     * the heat trace sum_i exp(-t lambda_i) over the total mass. Removes
+     * the 1/area level that large t approaches, which a partial scan or a
+     * cut model shares with nothing: only the shape of the heat remains. */
+    PHKS_HKS_SCALING_MEAN = 1
+} phks_hks_scaling;
 
 typedef enum phks_solver {
     /* Dense LAPACK for small meshes, block Lanczos above. */
@@ -215,7 +230,20 @@ typedef struct phks_options {
                                 tolerance * |B|: 1e-10                   */
     phks_progress_fn progress; /* NULL: no progress reports             */
     void *progress_user;     /* passed back to progress                  */
-    uint64_t reserved[24];   /* zero; room for fields of later versions  */
+    /* Fields below were carved out of `reserved` after 0.1.0; zero gives
+     * the paper's behaviour. */
+    double boundary_margin;  /* feature points are chosen among the
+                                maxima at least this far from the mesh
+                                boundary, in units of the width
+                                sqrt(4 feature_scale tau) of the heat
+                                kernel they come from (0: anywhere)       */
+    int32_t hks_scaling;     /* phks_hks_scaling                         */
+    uint32_t simplify_above; /* meshes with more vertices go through
+                                HKS-simp (a heat-based subsample carries
+                                the eigen-solve): 25000; 0 = never       */
+    uint32_t simplify_target;/* vertices HKS-simp aims to keep: 10000   */
+    uint32_t reserved32;     /* zero                                     */
+    uint64_t reserved[21];   /* zero; room for fields of later versions  */
 } phks_options;
 
 /* Fills *options with the defaults above. Thread-safe. Returns
@@ -471,6 +499,112 @@ PHKS_API phks_status phks_match(const phks_signature *a,
                                 const phks_signature *b,
                                 phks_correspondence *out, size_t capacity,
                                 size_t *count, double *score);
+
+/* =====================================================================
+ * Shape databases
+ * =====================================================================
+ * A phks_db is a catalogue of signatures, each with a name (a file name,
+ * say) and a class label, stored in one SQLite file (docs/formats.md): every
+ * write is one transaction, so a crash, a killed process or a full disk
+ * leaves the last committed state readable, and other tools can read the
+ * file. The database records the options its signatures were made with
+ * (those of the first signature added) and refuses others.
+ *
+ * Queries scan a packed in-memory copy of every feature vector, on several
+ * threads; the copy is refreshed when another process or handle commits.
+ *
+ * Thread-safety: one handle may be used from many threads at once; queries
+ * run in parallel, writes are serialised. Several processes may open the
+ * same file; each sees the others' committed writes at its next call.
+ */
+typedef struct phks_db phks_db;
+
+/* Flags for phks_db_open. */
+#define PHKS_DB_READONLY 0x1u /* refuse writes; the file must exist      */
+#define PHKS_DB_CREATE 0x2u   /* create the file if it does not exist     */
+
+/* Opens (or, with PHKS_DB_CREATE, creates) the database at path; ":memory:"
+ * gives a private database in memory. Errors: PHKS_ERROR_INVALID_ARGUMENT
+ * (NULL, unknown flags, READONLY with CREATE), PHKS_ERROR_IO (missing file
+ * without CREATE, unreadable, locked too long), PHKS_ERROR_CORRUPT (not a
+ * libphks database, or damaged), PHKS_ERROR_UNSUPPORTED_VERSION (written by
+ * a newer format), PHKS_ERROR_OUT_OF_MEMORY. */
+PHKS_API phks_status phks_db_open(const char *path, unsigned flags,
+                                  phks_db **db);
+/* Closes the database and frees the handle; NULL does nothing. No other
+ * thread may be using it. */
+PHKS_API void phks_db_close(phks_db *db);
+
+/* Adds a signature under name and label (UTF-8, copied; label may be NULL
+ * or "" for none) and sets *id (may be NULL) to its new id, which is never
+ * reused. Errors: PHKS_ERROR_INVALID_ARGUMENT (NULL db, name or signature;
+ * read-only database), PHKS_ERROR_INCOMPATIBLE (made with other options
+ * than the database's), PHKS_ERROR_IO (disk full, file not writable, busy),
+ * PHKS_ERROR_OUT_OF_MEMORY. On failure nothing is added. */
+PHKS_API phks_status phks_db_add(phks_db *db, const char *name,
+                                 const char *label,
+                                 const phks_signature *signature, int64_t *id);
+
+typedef struct phks_db_entry {
+    const char *name;                 /* required                          */
+    const char *label;                /* may be NULL                       */
+    const phks_signature *signature;  /* required                          */
+} phks_db_entry;
+
+/* Adds count entries in one transaction: all are added or none. ids (may be
+ * NULL) receives count ids. Errors as phks_db_add; the message names the
+ * index of the entry at fault. */
+PHKS_API phks_status phks_db_add_batch(phks_db *db,
+                                       const phks_db_entry *entries,
+                                       size_t count, int64_t *ids);
+
+/* Removes the entry with this id. Errors: PHKS_ERROR_INVALID_ARGUMENT (NULL,
+ * read-only, or no such id), PHKS_ERROR_IO. */
+PHKS_API phks_status phks_db_remove(phks_db *db, int64_t id);
+
+/* Number of entries into *count. Errors: PHKS_ERROR_INVALID_ARGUMENT,
+ * PHKS_ERROR_IO. */
+PHKS_API phks_status phks_db_count(phks_db *db, size_t *count);
+
+/* Up to capacity ids of entries, ascending, starting after after_id (0 for
+ * the first page), into ids; *count gets how many were written. Pages
+ * through a database of any size. Errors: PHKS_ERROR_INVALID_ARGUMENT,
+ * PHKS_ERROR_IO. */
+PHKS_API phks_status phks_db_list(phks_db *db, int64_t after_id,
+                                  int64_t *ids, size_t capacity,
+                                  size_t *count);
+
+/* Entry id: a new signature the caller frees (signature may be NULL), and
+ * its name and label copied into caller buffers of name_capacity and
+ * label_capacity bytes, NUL-terminated (either buffer may be NULL with
+ * capacity 0). Errors: PHKS_ERROR_INVALID_ARGUMENT (no such id),
+ * PHKS_ERROR_BUFFER_TOO_SMALL (a string does not fit: nothing is
+ * returned), PHKS_ERROR_CORRUPT (the stored blob is damaged),
+ * PHKS_ERROR_IO, PHKS_ERROR_OUT_OF_MEMORY. */
+PHKS_API phks_status phks_db_get(phks_db *db, int64_t id,
+                                 phks_signature **signature, char *name,
+                                 size_t name_capacity, char *label,
+                                 size_t label_capacity);
+
+/* The longest name or label a hit carries in full; longer ones are cut at
+ * a UTF-8 character boundary (phks_db_get returns them whole). */
+#define PHKS_DB_TEXT_MAX 255
+
+typedef struct phks_hit {
+    int64_t id;
+    double score;                        /* phks_score(query, entry)       */
+    char name[PHKS_DB_TEXT_MAX + 1];
+    char label[PHKS_DB_TEXT_MAX + 1];
+} phks_hit;
+
+/* The k entries with the lowest phks_score against query, best first; ties
+ * go to the lower id. hits needs room for k records; *count gets
+ * min(k, entries). The scores are exactly phks_score's. Errors:
+ * PHKS_ERROR_INVALID_ARGUMENT (NULL, k = 0), PHKS_ERROR_INCOMPATIBLE (query
+ * made with other options than the database's), PHKS_ERROR_IO,
+ * PHKS_ERROR_OUT_OF_MEMORY. Many threads may query one handle at once. */
+PHKS_API phks_status phks_db_query(phks_db *db, const phks_signature *query,
+                                   size_t k, phks_hit *hits, size_t *count);
 
 #ifdef __cplusplus
 }

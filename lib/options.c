@@ -29,6 +29,8 @@ phks_status phks_options_init(phks_options *options)
     options->solver = PHKS_SOLVER_AUTO;
     options->threads = 0;
     options->tolerance = 1e-10;
+    options->simplify_above = 25000;
+    options->simplify_target = 10000;
     return PHKS_OK;
 }
 
@@ -91,6 +93,15 @@ phks_status phks_options_resolve(const phks_options *user, phks_options *out)
         return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "options: tolerance %g outside [1e-15, 1e-2]",
                          out->tolerance);
+    if (!(out->boundary_margin >= 0 && out->boundary_margin <= 100))
+        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+                         "options: boundary_margin %g outside [0, 100]",
+                         out->boundary_margin);
+    if (out->hks_scaling != PHKS_HKS_SCALING_NONE &&
+        out->hks_scaling != PHKS_HKS_SCALING_MEAN)
+        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+                         "options: unknown hks_scaling %d",
+                         (int)out->hks_scaling);
     if (out->threads > 1024)
         return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "options: threads %u above 1024", out->threads);

@@ -44,7 +44,9 @@ bool phks_options_comparable(const phks_options *a, const phks_options *b)
     if (a->tau != b->tau || a->cutoff != b->cutoff ||
         a->eigen_count != b->eigen_count || a->feature_count != b->feature_count ||
         a->scale_count != b->scale_count || a->feature_scale != b->feature_scale ||
-        a->operator_kind != b->operator_kind || a->box != b->box)
+        a->operator_kind != b->operator_kind || a->box != b->box ||
+        a->boundary_margin != b->boundary_margin ||
+        a->hks_scaling != b->hks_scaling)
         return false;
     for (uint32_t i = 0; i < a->scale_count; i++)
         if (a->scales[i] != b->scales[i])
@@ -73,6 +75,66 @@ static phks_status check_spectrum(const phks_mesh *mesh,
     return PHKS_OK;
 }
 
+/* The factor that turns HKS_t into the scaled HKS of opt->hks_scaling:
+ * total mass over the heat trace, the inverse of the mass-weighted mean
+ * of HKS_t (the eigenvectors are mass-orthonormal). */
+static double hks_factor(const phks_spectrum *spec, const phks_options *opt,
+                         double t)
+{
+    if (opt->hks_scaling == PHKS_HKS_SCALING_NONE)
+        return 1;
+    double mass = 0, trace = 0;
+    for (size_t v = 0; v < spec->n; v++)
+        mass += spec->mass[v];
+    for (size_t i = 0; i < spec->count; i++)
+        trace += exp(-t * spec->values[i]);
+    return mass / trace;
+}
+
+/* The persistent maxima of h that become feature points: the most
+ * persistent `wanted`, skipping those within the boundary margin. When
+ * every maximum is that close (a sliver of a mesh), the margin is dropped
+ * rather than returning no feature at all. */
+static phks_status pick_features(const phks_mesh *mesh, const double *h,
+                                 const phks_options *opt, size_t wanted,
+                                 phks_maximum **out, size_t *found)
+{
+    bool margin = opt->boundary_margin > 0 && mesh->boundary_edge_count > 0;
+    size_t room = margin ? mesh->triangle_count : wanted;
+    phks_maximum *maxima = phks_malloc_array(room, sizeof *maxima);
+    uint32_t *vertex = margin ? phks_malloc_array(room, sizeof *vertex) : NULL;
+    bool *near = margin ? phks_malloc_array(room, sizeof *near) : NULL;
+    phks_status st = PHKS_OK;
+    if (!maxima || (margin && (!vertex || !near)))
+        st = phks_fail_oom("feature points");
+    if (st == PHKS_OK)
+        st = phks_persistent_maxima(mesh, h, room, 0, maxima, found, NULL);
+    double scale = 1;
+    if (st == PHKS_OK && margin)
+        st = phks_unit_box_scale(mesh, (phks_box)opt->box, &scale);
+    if (st == PHKS_OK && margin) {
+        for (size_t i = 0; i < *found; i++)
+            vertex[i] = maxima[i].vertex;
+        double radius = opt->boundary_margin * sqrt(4 * opt->feature_scale * opt->tau);
+        st = phks_near_boundary(mesh, scale, radius, vertex, *found, near);
+    }
+    if (st == PHKS_OK && margin) {
+        size_t kept = 0;
+        for (size_t i = 0; i < *found && kept < wanted; i++)
+            if (!near[i])
+                maxima[kept++] = maxima[i];
+        *found = kept ? kept : (*found < wanted ? *found : wanted);
+    }
+    phks_free(vertex);
+    phks_free(near);
+    if (st != PHKS_OK) {
+        phks_free(maxima);
+        return st;
+    }
+    *out = maxima;
+    return PHKS_OK;
+}
+
 phks_status phks_signature_from_spectrum(const phks_mesh *mesh,
                                          const phks_spectrum *spec,
                                          const phks_options *options,
@@ -96,18 +158,22 @@ phks_status phks_signature_from_spectrum(const phks_mesh *mesh,
     if (wanted > mesh->triangle_count)
         wanted = mesh->triangle_count;
     double *h = phks_malloc_array(n, sizeof *h);
-    phks_maximum *maxima = phks_malloc_array(wanted, sizeof *maxima);
+    phks_maximum *maxima = NULL;
     phks_signature *sig = NULL;
     size_t found = 0;
-    if (!h || !maxima) {
+    if (!h) {
         st = phks_fail_oom("signature");
         goto done;
     }
-    st = phks_spectrum_hks(spec, opt.feature_scale * opt.tau, h);
+    double t_feature = opt.feature_scale * opt.tau;
+    st = phks_spectrum_hks(spec, t_feature, h);
+    double factor = hks_factor(spec, &opt, t_feature);
+    for (size_t v = 0; v < n; v++)
+        h[v] *= factor;
     if (st == PHKS_OK)
         st = phks_progress(&opt, PHKS_STAGE_PERSISTENCE, 0);
     if (st == PHKS_OK)
-        st = phks_persistent_maxima(mesh, h, wanted, 0, maxima, &found, NULL);
+        st = pick_features(mesh, h, &opt, wanted, &maxima, &found);
     if (st == PHKS_OK)
         st = phks_signature_alloc(found, opt.scale_count, &sig);
     if (st != PHKS_OK)
@@ -115,6 +181,9 @@ phks_status phks_signature_from_spectrum(const phks_mesh *mesh,
     sig->options = opt;
     sig->options.progress = NULL;
     sig->options.progress_user = NULL;
+    double factors[PHKS_MAX_SCALES];
+    for (size_t s = 0; s < opt.scale_count; s++)
+        factors[s] = hks_factor(spec, &opt, opt.scales[s] * opt.tau);
     for (size_t i = 0; i < found; i++) {
         uint32_t v = maxima[i].vertex;
         sig->vertex[i] = v;
@@ -122,7 +191,7 @@ phks_status phks_signature_from_spectrum(const phks_mesh *mesh,
         sig->persistence[i] = maxima[i].persistence;
         for (size_t s = 0; s < opt.scale_count; s++)
             sig->vectors[i * opt.scale_count + s] =
-                phks_hks_at(spec, opt.scales[s] * opt.tau, v);
+                phks_hks_at(spec, opt.scales[s] * opt.tau, v) * factors[s];
     }
     st = phks_progress(&opt, PHKS_STAGE_PERSISTENCE, 1);
 done:

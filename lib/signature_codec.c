@@ -6,24 +6,34 @@
  *   magic "PHKS"  u16 format (1)  u16 flags (0)
  *   f64 tau  f64 cutoff  u32 eigen_count  u32 feature_count
  *   f64 feature_scale  u32 operator  u32 box  u32 scale_count
+ *   (format 2 on:) f64 boundary_margin  u32 hks_scaling
  *   f64 scales[scale_count]
  *   u32 count, then per feature:
  *     u32 vertex  f64 x y z  f64 persistence  f64 vector[scale_count]
  *   u32 CRC-32 of every byte before it
- * A reader refuses a format number above its own rather than guess.
+ * A reader refuses a format number above its own rather than guess, and
+ * reads every older one: format 1 blobs predate the two format-2 fields and
+ * were made with them zero.
  */
 #include "internal.h"
 
 #include <math.h>
 #include <string.h>
 
-#define FORMAT 1
-#define HEADER_SIZE (4 + 2 + 2 + 8 + 8 + 4 + 4 + 8 + 4 + 4 + 4)
+#define FORMAT 2
+#define HEADER_SIZE_1 (4 + 2 + 2 + 8 + 8 + 4 + 4 + 8 + 4 + 4 + 4)
+#define FORMAT_2_FIELDS (8 + 4)
 #define FEATURE_FIXED (4 + 3 * 8 + 8)
 
-static size_t blob_size(size_t scales, size_t count)
+static size_t header_size(unsigned format)
 {
-    return HEADER_SIZE + 8 * scales + 4 + count * (FEATURE_FIXED + 8 * scales) + 4;
+    return HEADER_SIZE_1 + (format >= 2 ? FORMAT_2_FIELDS : 0);
+}
+
+static size_t blob_size(unsigned format, size_t scales, size_t count)
+{
+    return header_size(format) + 8 * scales + 4 +
+           count * (FEATURE_FIXED + 8 * scales) + 4;
 }
 
 static unsigned char *put_u16(unsigned char *p, uint16_t x)
@@ -78,7 +88,7 @@ static double get_f64(const unsigned char **p)
 
 size_t phks_signature_encoded_size(const phks_signature *sig)
 {
-    return sig ? blob_size(sig->length, sig->count) : 0;
+    return sig ? blob_size(FORMAT, sig->length, sig->count) : 0;
 }
 
 phks_status phks_signature_encode(const phks_signature *sig, void *buffer,
@@ -87,7 +97,7 @@ phks_status phks_signature_encode(const phks_signature *sig, void *buffer,
     if (!sig || !size || (!buffer && capacity))
         return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "phks_signature_encode: NULL argument");
-    size_t need = blob_size(sig->length, sig->count);
+    size_t need = blob_size(FORMAT, sig->length, sig->count);
     *size = need;
     if (capacity < need)
         return phks_fail(PHKS_ERROR_BUFFER_TOO_SMALL,
@@ -106,6 +116,8 @@ phks_status phks_signature_encode(const phks_signature *sig, void *buffer,
     p = put_u32(p, (uint32_t)o->operator_kind);
     p = put_u32(p, (uint32_t)o->box);
     p = put_u32(p, o->scale_count);
+    p = put_f64(p, o->boundary_margin);
+    p = put_u32(p, (uint32_t)o->hks_scaling);
     for (uint32_t s = 0; s < o->scale_count; s++)
         p = put_f64(p, o->scales[s]);
     p = put_u32(p, (uint32_t)sig->count);
@@ -167,7 +179,7 @@ phks_status phks_signature_decode(const void *buffer, size_t size,
     if (format == 0 || flags != 0)
         return phks_fail(PHKS_ERROR_CORRUPT,
                          "signature blob: format %u flags %u", format, flags);
-    if (size < HEADER_SIZE + 4)
+    if (size < header_size(format) + 4)
         return phks_fail(PHKS_ERROR_TRUNCATED, "signature blob: %zu bytes", size);
 
     phks_options o;
@@ -180,15 +192,21 @@ phks_status phks_signature_decode(const void *buffer, size_t size,
     o.operator_kind = (int32_t)get_u32(&p);
     o.box = (int32_t)get_u32(&p);
     o.scale_count = get_u32(&p);
+    o.boundary_margin = 0;
+    o.hks_scaling = PHKS_HKS_SCALING_NONE;
+    if (format >= 2) {
+        o.boundary_margin = get_f64(&p);
+        o.hks_scaling = (int32_t)get_u32(&p);
+    }
     if (o.scale_count < 1 || o.scale_count > PHKS_MAX_SCALES)
         return phks_fail(PHKS_ERROR_CORRUPT, "signature blob: %u scales",
                          o.scale_count);
-    if (size < HEADER_SIZE + 8 * (size_t)o.scale_count + 8)
+    if (size < header_size(format) + 8 * (size_t)o.scale_count + 8)
         return phks_fail(PHKS_ERROR_TRUNCATED, "signature blob: %zu bytes", size);
     for (uint32_t s = 0; s < o.scale_count; s++)
         o.scales[s] = get_f64(&p);
     uint32_t count = get_u32(&p);
-    size_t need = blob_size(o.scale_count, count);
+    size_t need = blob_size(format, o.scale_count, count);
     if (size < need)
         return phks_fail(PHKS_ERROR_TRUNCATED,
                          "signature blob: %zu bytes, %u features need %zu",

@@ -58,9 +58,11 @@ END_TEST
 START_TEST(layout_is_little_endian)
 {
     phks_signature *sig = make(1, 2);
+    sig->options.boundary_margin = 1.5;
+    sig->options.hks_scaling = PHKS_HKS_SCALING_MEAN;
     size_t size;
     unsigned char *blob = encode(sig, &size);
-    const unsigned char head[8] = {'P', 'H', 'K', 'S', 1, 0, 0, 0};
+    const unsigned char head[8] = {'P', 'H', 'K', 'S', 2, 0, 0, 0};
     ck_assert_mem_eq(blob, head, 8);
     /* tau = 0.0002 = 0x3F2A36E2EB1C432D */
     const unsigned char tau[8] = {0x2D, 0x43, 0x1C, 0xEB, 0xE2, 0x36, 0x2A, 0x3F};
@@ -68,10 +70,43 @@ START_TEST(layout_is_little_endian)
     /* eigen_count 300 = 0x12C at offset 24 */
     const unsigned char k[4] = {0x2C, 0x01, 0, 0};
     ck_assert_mem_eq(blob + 24, k, 4);
-    /* header 52, scales 120, count 4, one feature 4 + 24 + 8 + 120, crc 4 */
-    ck_assert_uint_eq(size, 52 + 15 * 8 + 4 + (4 + 32 + 15 * 8) + 4);
+    /* boundary_margin 1.5 = 0x3FF8000000000000 at 52, hks_scaling 1 at 60 */
+    const unsigned char margin[12] = {0, 0, 0, 0, 0, 0, 0xF8, 0x3F, 1, 0, 0, 0};
+    ck_assert_mem_eq(blob + 52, margin, 12);
+    /* header 64, scales 120, count 4, one feature 4 + 24 + 8 + 120, crc 4 */
+    ck_assert_uint_eq(size, 64 + 15 * 8 + 4 + (4 + 32 + 15 * 8) + 4);
     phks_signature_free(sig);
     free(blob);
+}
+END_TEST
+
+/* A format-1 blob (0.1.0 wrote them; no margin and scaling fields) still
+ * decodes, as made with the paper's behaviour for those fields. */
+START_TEST(format_1_still_reads)
+{
+    phks_signature *sig = make(2, 6);
+    sig->options.boundary_margin = 0;
+    sig->options.hks_scaling = PHKS_HKS_SCALING_NONE;
+    size_t size;
+    unsigned char *blob = encode(sig, &size);
+    size_t old_size = size - 12;
+    unsigned char *old = malloc(old_size);
+    memcpy(old, blob, 52);
+    memcpy(old + 52, blob + 64, size - 64);
+    old[4] = 1;
+    uint32_t crc = phks_crc32(old, old_size - 4);
+    for (int i = 0; i < 4; i++)
+        old[old_size - 4 + i] = (unsigned char)(crc >> (8 * i));
+    phks_signature *back;
+    ck_assert_int_eq(phks_signature_decode(old, old_size, &back), PHKS_OK);
+    ck_assert_double_eq(back->options.boundary_margin, 0);
+    ck_assert_int_eq(back->options.hks_scaling, PHKS_HKS_SCALING_NONE);
+    ck_assert(phks_options_comparable(&back->options, &sig->options));
+    ck_assert_mem_eq(back->vectors, sig->vectors, 30 * sizeof(double));
+    phks_signature_free(back);
+    phks_signature_free(sig);
+    free(blob);
+    free(old);
 }
 END_TEST
 
@@ -112,7 +147,7 @@ START_TEST(every_damage_is_refused)
         ck_assert(st == PHKS_ERROR_TRUNCATED || st == PHKS_ERROR_CORRUPT);
     }
     memcpy(copy, blob, size);
-    copy[4] = 2; /* a newer format */
+    copy[4] = 3; /* a newer format */
     ck_assert_int_eq(phks_signature_decode(copy, size, &out),
                      PHKS_ERROR_UNSUPPORTED_VERSION);
     ck_assert_int_eq(phks_signature_decode(NULL, size, &out),
@@ -216,6 +251,7 @@ int main(void)
     TCase *c = tcase_create("codec");
     tcase_add_test(c, round_trip_is_exact);
     tcase_add_test(c, layout_is_little_endian);
+    tcase_add_test(c, format_1_still_reads);
     tcase_add_test(c, small_buffer_reports_the_size);
     tcase_add_test(c, every_damage_is_refused);
     tcase_add_test(c, valid_checksum_impossible_numbers);
