@@ -1,0 +1,196 @@
+/*
+ * bench_query.c - top-k query time of a shape database against its size,
+ * on synthetic signatures (15 features x 15 scales, uniform random HKS
+ * values: every entry is about as far as every other, so the scan can
+ * skip little; real catalogues with classes are easier).
+ *
+ *   bench-query [--runs R] [--k K] [--file PATH] [SIZE...]
+ *
+ * Default sizes 300 and 1000000, R = 9 queries per size, K = 10, the
+ * database in memory (--file PATH: a new file, deleted afterwards). For
+ * each size it prints the time to add the entries, the first query (which
+ * loads the packed copy), the median and fastest of R further queries, the
+ * median CPU time of a query (all threads: on a busy machine this, divided
+ * by the CPU count, is what the wall time would be on an idle one) and the
+ * peak resident memory so far. Threads: all online CPUs.
+ */
+#include "internal.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/resource.h>
+#include <time.h>
+#include <unistd.h>
+
+#define FEATURES 15
+#define SCALES 15
+#define BATCH 10000
+
+static double now(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
+static double uniform(uint64_t *state)
+{
+    uint64_t z = (*state += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    z ^= z >> 31;
+    return (double)(z >> 11) * 0x1.0p-53;
+}
+
+static phks_signature *synthetic(uint64_t *state)
+{
+    phks_signature *sig;
+    if (phks_signature_alloc(FEATURES, SCALES, &sig) != PHKS_OK)
+        return NULL;
+    phks_options_init(&sig->options);
+    for (size_t i = 0; i < FEATURES; i++) {
+        sig->vertex[i] = (uint32_t)i;
+        for (int d = 0; d < 3; d++)
+            sig->position[3 * i + d] = uniform(state);
+        sig->persistence[i] = uniform(state);
+        for (size_t s = 0; s < SCALES; s++)
+            sig->vectors[i * SCALES + s] = uniform(state);
+    }
+    return sig;
+}
+
+static int by_value(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+static double cpu_seconds(void)
+{
+    struct rusage use;
+    getrusage(RUSAGE_SELF, &use);
+    return (double)use.ru_utime.tv_sec + 1e-6 * (double)use.ru_utime.tv_usec +
+           (double)use.ru_stime.tv_sec + 1e-6 * (double)use.ru_stime.tv_usec;
+}
+
+static double peak_mb(void)
+{
+    struct rusage use;
+    getrusage(RUSAGE_SELF, &use);
+    return (double)use.ru_maxrss / 1024;
+}
+
+static int fail(const char *what)
+{
+    fprintf(stderr, "bench-query: %s: %s\n", what, phks_last_error_message());
+    return 1;
+}
+
+static int run(size_t size, int runs, size_t k, const char *file)
+{
+    if (file)
+        unlink(file);
+    phks_db *db;
+    if (phks_db_open(file ? file : ":memory:", PHKS_DB_CREATE, &db) != PHKS_OK)
+        return fail("open");
+    uint64_t state = 12345;
+    phks_signature **sigs = calloc(BATCH, sizeof *sigs);
+    phks_db_entry *entries = calloc(BATCH, sizeof *entries);
+    char (*names)[32] = calloc(BATCH, sizeof *names);
+    double t0 = now();
+    for (size_t done = 0; done < size;) {
+        size_t n = size - done < BATCH ? size - done : BATCH;
+        for (size_t i = 0; i < n; i++) {
+            sigs[i] = synthetic(&state);
+            snprintf(names[i], sizeof names[i], "shape-%zu", done + i);
+            entries[i] = (phks_db_entry){names[i], i % 2 ? "odd" : "even",
+                                         sigs[i]};
+        }
+        phks_status st = phks_db_add_batch(db, entries, n, NULL);
+        for (size_t i = 0; i < n; i++)
+            phks_signature_free(sigs[i]);
+        if (st != PHKS_OK)
+            return fail("add");
+        done += n;
+    }
+    double t_add = now() - t0;
+
+    phks_hit *hits = calloc(k, sizeof *hits);
+    double *times = calloc((size_t)runs, sizeof *times);
+    double *cpu = calloc((size_t)runs, sizeof *cpu);
+    size_t count;
+    phks_signature *q = synthetic(&state);
+    t0 = now();
+    if (phks_db_query(db, q, k, hits, &count) != PHKS_OK)
+        return fail("query");
+    double t_first = now() - t0;
+    phks_signature_free(q);
+    for (int r = 0; r < runs; r++) {
+        q = synthetic(&state);
+        double c0 = cpu_seconds();
+        t0 = now();
+        if (phks_db_query(db, q, k, hits, &count) != PHKS_OK)
+            return fail("query");
+        times[r] = now() - t0;
+        cpu[r] = cpu_seconds() - c0;
+        phks_signature_free(q);
+    }
+    qsort(times, (size_t)runs, sizeof *times, by_value);
+    qsort(cpu, (size_t)runs, sizeof *cpu, by_value);
+    printf("%10zu %9.2f %11.4f %11.4f %11.4f %11.4f %9.0f  best %s %.4g\n",
+           size, t_add, t_first * 1e3, times[runs / 2] * 1e3, times[0] * 1e3,
+           cpu[runs / 2] * 1e3, peak_mb(), hits[0].name, hits[0].score);
+    fflush(stdout);
+    phks_db_close(db);
+    if (file)
+        unlink(file);
+    free(times);
+    free(cpu);
+    free(hits);
+    free(names);
+    free(entries);
+    free(sigs);
+    return 0;
+}
+
+int main(int argc, char **argv)
+{
+    int runs = 9;
+    size_t k = 10;
+    const char *file = NULL;
+    size_t sizes[16], nsizes = 0;
+    for (int i = 1; i < argc; i++) {
+        if (!strcmp(argv[i], "--runs") && i + 1 < argc)
+            runs = atoi(argv[++i]);
+        else if (!strcmp(argv[i], "--k") && i + 1 < argc)
+            k = (size_t)strtoull(argv[++i], NULL, 10);
+        else if (!strcmp(argv[i], "--file") && i + 1 < argc)
+            file = argv[++i];
+        else if (argv[i][0] != '-' && nsizes < 16)
+            sizes[nsizes++] = (size_t)strtoull(argv[i], NULL, 10);
+        else {
+            fprintf(stderr, "usage: %s [--runs R] [--k K] [--file PATH] "
+                            "[SIZE...]\n", argv[0]);
+            return 2;
+        }
+    }
+    if (runs < 1 || k < 1) {
+        fprintf(stderr, "bench-query: runs and k must be positive\n");
+        return 2;
+    }
+    if (nsizes == 0) {
+        sizes[nsizes++] = 300;
+        sizes[nsizes++] = 1000000;
+    }
+    printf("top-%zu of %d x %d synthetic signatures, %ld CPUs, median of "
+           "%d queries\n", k, FEATURES, SCALES, sysconf(_SC_NPROCESSORS_ONLN),
+           runs);
+    printf("%10s %9s %11s %11s %11s %11s %9s\n", "entries", "add s",
+           "first ms", "median ms", "best ms", "cpu ms", "peak MB");
+    for (size_t i = 0; i < nsizes; i++)
+        if (run(sizes[i], runs, k, file) != 0)
+            return 1;
+    return 0;
+}

@@ -1,0 +1,127 @@
+/*
+ * cli.h - the pieces shared by the files of the `phks` command-line tool.
+ * The tool uses the public API only (phks.h) plus the example generators.
+ *
+ * Conventions: commands return the exit status (0 success, 1 failure, 2
+ * usage error). Failures print "phks: FILE: reason" on stderr; usage errors
+ * print a usage line. Output meant for people or scripts goes to stdout.
+ */
+#ifndef PHKS_CLI_H
+#define PHKS_CLI_H
+
+#include "phks.h"
+
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+
+/* ---- commands (argv[0] is the command's name) -------------------------- */
+int cli_signature(int argc, char **argv, const phks_options *options);
+int cli_match(int argc, char **argv, const phks_options *options);
+int cli_segment(int argc, char **argv, const phks_options *options);
+int cli_db(int argc, char **argv, const phks_options *options);
+int cli_db_add(int argc, char **argv, const phks_options *options);
+int cli_bench(int argc, char **argv, const phks_options *options);
+
+/* ---- errors and usage (cli_util.c) -------------------------------------- */
+/* The calling thread's last error message (without a leading "what: "),
+ * or the status string when the library left no message. */
+const char *cli_reason(const char *what, phks_status status);
+/* Prints "phks: what: <last error message>" (or the status string when the
+ * library left no message) and returns 1. */
+int cli_fail(const char *what, phks_status status);
+/* Prints "phks: what: reason" and returns 1. */
+int cli_error(const char *what, const char *reason);
+/* Prints "usage: phks <line>" and returns 2. */
+int cli_usage(const char *line);
+
+/* ---- argument parsing (cli_util.c) ------------------------------------- */
+typedef struct cli_opt {
+    const char *name;   /* "-o", "--json"                                */
+    const char **value; /* set to the next argument; NULL for a flag     */
+    int *flag;          /* set to 1 when the flag is present             */
+} cli_opt;
+
+/* Sorts argv[first..argc) into options (from opts) and positional
+ * arguments, which are moved to the front of argv + first; *npos gets their
+ * number. "--" ends the options. Returns 0, or -1 after printing what is
+ * wrong (unknown option, missing value). */
+int cli_parse(int argc, char **argv, int first, const cli_opt *opts,
+              size_t nopts, int *npos);
+/* Strict unsigned decimal in [min, max]; 0 or -1 (prints nothing). */
+int cli_parse_count(const char *text, unsigned long min, unsigned long max,
+                    unsigned long *out);
+
+/* ---- files and signatures (cli_util.c) --------------------------------- */
+/* The whole file into a new buffer (free it); 0, or -1 with errno set. */
+int cli_read_file(const char *path, unsigned char **data, size_t *size);
+/* Writes path atomically: a temporary file beside it, then rename.
+ * 0, or -1 with errno set. */
+int cli_write_file_atomic(const char *path, const void *data, size_t size);
+/* The encoded blob of sig into a new buffer (free it). */
+phks_status cli_encode(const phks_signature *sig, unsigned char **blob,
+                       size_t *size);
+/* 1 when the file starts with the blob magic "PHKS". */
+int cli_is_blob(const char *path);
+/* A signature from a mesh file, or from a .sig blob (recognised by the
+ * magic "PHKS"). Prints "phks: path: reason" and returns NULL on failure. */
+phks_signature *cli_signature_of(const char *path, const phks_options *options);
+/* Online CPUs, at least 1. */
+unsigned cli_cpu_count(void);
+/* "literal" or "random-walk". */
+const char *cli_operator_name(int32_t operator_kind);
+/* Prints the options that shape the numbers, one line, with a prefix. */
+void cli_print_options(FILE *out, const char *prefix, const phks_options *o);
+
+/* ---- manifests (cli_manifest.c) ----------------------------------------- */
+typedef struct cli_row {
+    char *name;  /* the file column as written              */
+    char *path;  /* name joined to the manifest's directory */
+    char *cls;   /* the class column                        */
+} cli_row;
+
+/* Reads a TSV with a header line naming at least the columns "file" and
+ * "class" (any order; other columns ignored). Prints "phks: path: reason"
+ * and returns -1 on failure. */
+int cli_manifest_read(const char *path, cli_row **rows, size_t *count);
+void cli_manifest_free(cli_row *rows, size_t count);
+
+/* ---- work pool, output lock and progress bar (cli_pool.c) --------------- */
+typedef void (*cli_task_fn)(void *ctx, size_t index);
+/* Runs task(ctx, i) for i = 0..count-1 on `workers` threads, handing out
+ * indices in order. Returns when all are done. */
+void cli_pool_run(size_t count, unsigned workers, cli_task_fn task, void *ctx);
+/* Workers that each run one signature at a time are best served by
+ * single-threaded BLAS: OpenBLAS's own threads would only compete with
+ * them (measured: twice the CPU time for the same work). Sets OpenBLAS,
+ * when the process has it, to one thread unless OPENBLAS_NUM_THREADS or
+ * OMP_NUM_THREADS says otherwise. */
+void cli_blas_one_thread(void);
+/* Starts a progress bar on stderr (only drawn when stderr is a terminal):
+ * "[=====>    ] 12/380 unit". */
+void cli_progress_start(size_t total, const char *unit);
+/* One more item done; thread-safe. */
+void cli_progress_step(void);
+/* Ends the bar (a newline when one was drawn). */
+void cli_progress_end(void);
+/* printf to `out` from any thread without tearing the progress bar. */
+void cli_say(FILE *out, const char *format, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 2, 3)))
+#endif
+    ;
+/* cli_fail from any thread: "phks: what: reason" on stderr. */
+void cli_say_fail(const char *what, phks_status status);
+
+/* ---- hashing (cli_hash.c) ------------------------------------------------ */
+/* splitmix64's finaliser: a bijective 64-bit mix. */
+uint64_t cli_mix64(uint64_t x);
+/* h = mix64(h ^ byte) for every byte. */
+uint64_t cli_hash_bytes(uint64_t h, const void *data, size_t size);
+/* h = mix64(h ^ word) for one 64-bit word. */
+uint64_t cli_hash_u64(uint64_t h, uint64_t word);
+uint64_t cli_hash_double(uint64_t h, double value);
+/* The string's bytes, then its length. */
+uint64_t cli_hash_string(uint64_t h, const char *text);
+
+#endif

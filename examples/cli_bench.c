@@ -1,0 +1,275 @@
+/*
+ * cli_bench.c - `phks bench MANIFEST`: the retrieval protocol of the
+ * paper's section 5 (docs/cli.md states it in full). This file chooses the
+ * models, lays out the signatures to compute, runs them on the work pool
+ * and prints the report; cli_bench_item.c computes one signature and
+ * cli_bench_score.c scores one seed.
+ */
+#include "cli_bench.h"
+
+#include <errno.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <time.h>
+
+static const char usage[] =
+    "bench MANIFEST [--prefix P] [--classes A,B] [--max-per-class M]\n"
+    "                  [--seeds N] [--cache DIR] [--queries-out TSV] [-j N]";
+
+typedef struct bench_args {
+    const char *manifest, *prefix, *classes, *cache, *queries_out;
+    unsigned long max_per_class, seeds, workers;
+} bench_args;
+
+static int parse_args(int argc, char **argv, bench_args *a)
+{
+    const char *max = NULL, *seeds = "1", *jobs = NULL;
+    const cli_opt opts[] = {
+        {"--prefix", &a->prefix, NULL},   {"--classes", &a->classes, NULL},
+        {"--max-per-class", &max, NULL},  {"--seeds", &seeds, NULL},
+        {"--cache", &a->cache, NULL},     {"--queries-out", &a->queries_out, NULL},
+        {"-j", &jobs, NULL},
+    };
+    int n;
+    a->prefix = "psb/";
+    a->max_per_class = (unsigned long)-1;
+    a->workers = cli_cpu_count();
+    if (cli_parse(argc, argv, 1, opts, sizeof opts / sizeof opts[0], &n) ||
+        n != 1 || (max && cli_parse_count(max, 1, (unsigned long)-1,
+                                          &a->max_per_class)) ||
+        cli_parse_count(seeds, 1, 1000000, &a->seeds) ||
+        (jobs && cli_parse_count(jobs, 1, 1024, &a->workers)))
+        return -1;
+    a->manifest = argv[1];
+    return 0;
+}
+
+/* The name after the next comma of a comma-separated list, or NULL. */
+static const char *next_name(const char *p)
+{
+    const char *comma = strchr(p, ',');
+    return comma ? comma + 1 : NULL;
+}
+
+/* Is cls one of the comma-separated names in list (NULL: all)? */
+static int listed(const char *list, const char *cls)
+{
+    size_t n = strlen(cls);
+    for (const char *p = list; p; p = next_name(p))
+        if (strncmp(p, cls, n) == 0 && (p[n] == ',' || p[n] == '\0'))
+            return 1;
+    return !list;
+}
+
+static int wanted(const bench_args *a, const cli_row *row)
+{
+    return strncmp(row->name, a->prefix, strlen(a->prefix)) == 0 &&
+           listed(a->classes, row->cls);
+}
+
+/* Every name of --classes has a row under the prefix. */
+static int check_classes(const bench_args *a, const cli_row *rows, size_t n)
+{
+    for (const char *p = a->classes; p; p = next_name(p)) {
+        size_t len = strcspn(p, ",");
+        size_t r = 0;
+        while (r < n && !(wanted(a, &rows[r]) &&
+                          strlen(rows[r].cls) == len &&
+                          strncmp(rows[r].cls, p, len) == 0))
+            r++;
+        if (r == n) {
+            fprintf(stderr, "phks: %s: no class %.*s under %s\n", a->manifest,
+                    (int)len, p, a->prefix);
+            return -1;
+        }
+    }
+    return 0;
+}
+
+/* A class's models in manifest order: query when i % 4 == 3, else the j-th
+ * database model, entered as version j % 3. */
+static void add_class(const bench_args *a, const cli_row *rows, size_t n,
+                      size_t first, bench_plan *p)
+{
+    size_t i = 0, j = 0;
+    for (size_t r = first; r < n && i < a->max_per_class; r++) {
+        if (!wanted(a, &rows[r]) || strcmp(rows[r].cls, rows[first].cls) != 0)
+            continue;
+        bench_model *m = &p->models[p->model_count++];
+        m->row = &rows[r];
+        m->is_query = i++ % 4 == 3;
+        m->db_kind = m->is_query ? KIND_COMPLETE : (int)(j++ % 3);
+    }
+}
+
+static int select_models(const bench_args *a, const cli_row *rows, size_t n,
+                         bench_plan *p)
+{
+    p->models = calloc(n ? n : 1, sizeof *p->models);
+    if (!p->models)
+        return cli_error(a->manifest, "out of memory");
+    for (size_t r = 0; r < n; r++) {
+        size_t s = 0;
+        while (s < r && !(wanted(a, &rows[s]) &&
+                          strcmp(rows[s].cls, rows[r].cls) == 0))
+            s++;
+        if (wanted(a, &rows[r]) && s == r)  /* first of its class */
+            add_class(a, rows, n, r, p);
+    }
+    if (!p->model_count)
+        return cli_error(a->manifest, "no model matches the prefix and classes");
+    return 0;
+}
+
+/* Items: a query model's complete version, then per seed its partial and
+ * incomplete ones; a database model's one version (once if complete, else
+ * per seed). */
+static int plan_items(bench_plan *p)
+{
+    size_t count = 0;
+    for (size_t m = 0; m < p->model_count; m++) {
+        bench_model *model = &p->models[m];
+        model->first_item = count;
+        count += model->is_query ? 1 + 2 * (size_t)p->seeds
+                 : model->db_kind == KIND_COMPLETE ? 1 : p->seeds;
+    }
+    p->items = calloc(count, sizeof *p->items);
+    if (!p->items)
+        return -1;
+    p->item_count = count;
+    for (size_t m = 0; m < p->model_count; m++)
+        for (int k = 0; k < KIND_COUNT; k++)
+            for (unsigned s = 1; s <= p->seeds; s++) {
+                const bench_model *model = &p->models[m];
+                if ((!model->is_query && k != model->db_kind) ||
+                    (k == KIND_COMPLETE && s > 1))
+                    continue;
+                bench_item *it = &p->items[bench_item_of(p, m, k, s)];
+                it->model = m;
+                it->kind = k;
+                it->seed = k == KIND_COMPLETE ? 0 : s;
+            }
+    return 0;
+}
+
+static void print_header(const bench_args *a, const bench_plan *p,
+                         unsigned workers)
+{
+    size_t queries = 0;
+    for (size_t m = 0; m < p->model_count; m++)
+        queries += (size_t)p->models[m].is_query;
+    char per_class[48] = "all models";
+    if (a->max_per_class != (unsigned long)-1)
+        snprintf(per_class, sizeof per_class, "the first %lu models",
+                 a->max_per_class);
+    printf("# phks bench\n\nlibphks %s; manifest %s, files under \"%s\", "
+           "classes %s, %s of each; seed bases 1..%u; %u workers.\n\n",
+           phks_version_string(), a->manifest, a->prefix,
+           a->classes ? a->classes : "all", per_class, p->seeds, workers);
+    cli_print_options(stdout, "Options: ", &p->options);
+    printf("\nProtocol (paper section 5): per class, models i = 0, 1, ... in "
+           "manifest order; queries: i %% 4 == 3; database: the others, each "
+           "entered as one version by its position j among them: j %% 3 == 0 "
+           "complete, 1 partial scan, 2 incomplete. Each query model is "
+           "queried as complete, partial scan and incomplete. Generator seed "
+           "= splitmix64 hash of (seed base, file, kind). Top-k: an entry of "
+           "the query's class among the k best (phks_db_query); rates over "
+           "the answered queries.\n\n%zu models: %zu query models (%zu queries "
+           "per seed), %zu database models.\n", p->model_count, queries,
+           3 * queries, p->model_count - queries);
+}
+
+static FILE *open_queries_out(const char *path)
+{
+    FILE *f = path ? fopen(path, "w") : NULL;
+    if (path && !f)
+        cli_error(path, strerror(errno));
+    else if (f)
+        fprintf(f, "file\tkind\tseed\tclass\trank\ttop1_label\n");
+    return f;
+}
+
+static int score_all(const bench_plan *p, FILE *qout)
+{
+    bench_tally pooled = {0};
+    int rc = 0;
+    for (unsigned s = 1; s <= p->seeds; s++) {
+        bench_tally t = {0};
+        char title[64];
+        rc |= bench_score_seed(p, s, &t, qout);
+        bench_tally_add(&pooled, &t);
+        snprintf(title, sizeof title, "Seed %u", s);
+        if (p->seeds > 1)
+            bench_print_tally(&t, title);
+    }
+    bench_print_tally(&pooled, p->seeds > 1 ? "All seeds (pooled)" : "Results");
+    return rc;
+}
+
+static void print_footer(const bench_plan *p, double seconds)
+{
+    size_t computed = 0, cached = 0, failed = 0;
+    for (size_t i = 0; i < p->item_count; i++) {
+        const bench_item *it = &p->items[i];
+        failed += !it->sig;
+        cached += it->sig && it->cached;
+        computed += it->sig && !it->cached;
+    }
+    printf("\nSignatures: %zu computed, %zu from the cache, %zu failed; wall "
+           "time %.1f s.\n", computed, cached, failed, seconds);
+}
+
+static double now(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
+static int run(const bench_args *a, bench_plan *p, FILE *qout)
+{
+    if (a->cache && mkdir(a->cache, 0777) != 0 && errno != EEXIST)
+        return cli_error(a->cache, strerror(errno));
+    unsigned workers = (unsigned)a->workers;
+    print_header(a, p, workers);
+    fflush(stdout);
+    double start = now();
+    cli_blas_one_thread();
+    cli_progress_start(p->item_count, "signatures");
+    cli_pool_run(p->item_count, workers, bench_compute, p);
+    cli_progress_end();
+    int rc = score_all(p, qout);
+    print_footer(p, now() - start);
+    return rc;
+}
+
+int cli_bench(int argc, char **argv, const phks_options *options)
+{
+    bench_args a = {0};
+    if (parse_args(argc, argv, &a) != 0)
+        return cli_usage(usage);
+    cli_row *rows;
+    size_t n;
+    if (cli_manifest_read(a.manifest, &rows, &n) != 0)
+        return 1;
+    bench_plan p = {.seeds = (unsigned)a.seeds, .options = *options,
+                    .cache_dir = a.cache};
+    p.options.threads = 1;
+    FILE *qout = NULL;
+    int rc = check_classes(&a, rows, n) || select_models(&a, rows, n, &p);
+    if (!rc && plan_items(&p) != 0)
+        rc = cli_error("bench", "out of memory");
+    if (!rc && a.queries_out && !(qout = open_queries_out(a.queries_out)))
+        rc = 1;
+    if (!rc)
+        rc = run(&a, &p, qout);
+    if (qout && fclose(qout) != 0)
+        rc = cli_error(a.queries_out, strerror(errno));
+    for (size_t i = 0; i < p.item_count; i++)
+        phks_signature_free(p.items[i].sig);
+    free(p.items);
+    free(p.models);
+    cli_manifest_free(rows, n);
+    return rc ? 1 : 0;
+}

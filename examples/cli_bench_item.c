@@ -1,0 +1,250 @@
+/*
+ * cli_bench_item.c - one signature of `phks bench`: load the model, make
+ * the version (complete, partial scan or incomplete), take the signature
+ * from the cache or compute it, and for partial and incomplete queries
+ * count the feature points next to the cut.
+ */
+#include "cli_bench.h"
+#include "partial.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stddef.h>
+#include <stdlib.h>
+#include <string.h>
+
+const char *const bench_kind_name[KIND_COUNT] = {"complete", "partial",
+                                                 "incomplete"};
+
+uint64_t bench_seed(unsigned seed_base, const char *name, int kind)
+{
+    uint64_t h = cli_mix64(seed_base);
+    h = cli_hash_bytes(h, name, strlen(name));
+    return cli_mix64(h ^ (uint64_t)kind);
+}
+
+/* ---- the cache ----------------------------------------------------------- */
+/* The fields that shape the numbers: those of 0.1.0 by name, then every
+ * byte from boundary_margin to the end of the struct, which holds the
+ * fields carved out of `reserved` since and the rest of `reserved`, so
+ * fields added later are covered too. */
+static uint64_t hash_options(uint64_t h, const phks_options *o)
+{
+    h = cli_hash_double(h, o->tau);
+    h = cli_hash_double(h, o->cutoff);
+    h = cli_hash_u64(h, o->eigen_count);
+    h = cli_hash_u64(h, o->feature_count);
+    h = cli_hash_u64(h, o->scale_count);
+    for (uint32_t i = 0; i < o->scale_count && i < PHKS_MAX_SCALES; i++)
+        h = cli_hash_double(h, o->scales[i]);
+    h = cli_hash_double(h, o->feature_scale);
+    h = cli_hash_u64(h, (uint64_t)(int64_t)o->operator_kind);
+    h = cli_hash_u64(h, (uint64_t)(int64_t)o->box);
+    size_t tail = offsetof(phks_options, boundary_margin);
+    return cli_hash_bytes(h, (const unsigned char *)o + tail,
+                          sizeof *o - tail);
+}
+
+/* The exact arrays the signature is computed from: a changed file or
+ * generator never reuses a stale signature. */
+static uint64_t hash_mesh(uint64_t h, const phks_mesh *mesh)
+{
+    size_t n = phks_mesh_vertex_count(mesh), m = phks_mesh_triangle_count(mesh);
+    const double *xyz = phks_mesh_vertices(mesh);
+    const uint32_t *tri = phks_mesh_triangles(mesh);
+    h = cli_hash_u64(cli_hash_u64(h, n), m);
+    for (size_t i = 0; i < 3 * n; i++)
+        h = cli_hash_double(h, xyz[i]);
+    for (size_t i = 0; i < 3 * m; i++)
+        h = cli_hash_u64(h, tri[i]);
+    return h;
+}
+
+static char *cache_path(const bench_plan *p, const bench_item *it,
+                        uint64_t seed, const phks_mesh *mesh)
+{
+    uint64_t h = cli_hash_string(0, "phks-cli-cache-1");
+    h = cli_hash_u64(h, phks_version_number());
+    h = cli_hash_string(h, p->models[it->model].row->name);
+    h = cli_hash_u64(cli_hash_u64(h, (uint64_t)it->kind), seed);
+    h = hash_mesh(hash_options(h, &p->options), mesh);
+    char *path = malloc(strlen(p->cache_dir) + 32);
+    if (path)
+        sprintf(path, "%s/%016llx.sig", p->cache_dir, (unsigned long long)h);
+    return path;
+}
+
+static phks_signature *cache_load(const char *path)
+{
+    unsigned char *blob;
+    size_t size;
+    phks_signature *sig = NULL;
+    if (!path || cli_read_file(path, &blob, &size) != 0)
+        return NULL;
+    if (phks_signature_decode(blob, size, &sig) != PHKS_OK)
+        sig = NULL;  /* damaged or foreign: computed again and replaced */
+    free(blob);
+    return sig;
+}
+
+static void cache_store(const char *path, const phks_signature *sig)
+{
+    unsigned char *blob;
+    size_t size;
+    if (!path || cli_encode(sig, &blob, &size) != PHKS_OK)
+        return;
+    if (cli_write_file_atomic(path, blob, size) != 0)
+        cli_say(stderr, "phks: %s: %s (not cached)\n", path, strerror(errno));
+    free(blob);
+}
+
+/* ---- features next to the cut ---------------------------------------- */
+static int edge_cmp(const void *a, const void *b)
+{
+    const uint32_t *x = a, *y = b;
+    return x[0] != y[0] ? (x[0] > y[0]) - (x[0] < y[0])
+                        : (x[1] > y[1]) - (x[1] < y[1]);
+}
+
+/* Vertices of mesh (made from pc) on a boundary edge that is not one of
+ * src's boundary edges: 1 in the returned array (free it), or NULL. */
+static unsigned char *cut_vertices(const phks_mesh *src, const piece *pc,
+                                   const phks_mesh *mesh)
+{
+    size_t n = phks_mesh_vertex_count(mesh);
+    size_t nb = phks_mesh_boundary_edge_count(mesh);
+    size_t ns = phks_mesh_boundary_edge_count(src);
+    const uint32_t *be = phks_mesh_boundary_edges(mesh);
+    const uint32_t *sbe = phks_mesh_boundary_edges(src);
+    const uint32_t *origin = phks_mesh_vertex_origin(mesh);
+    unsigned char *cut = calloc(n ? n : 1, 1);
+    for (size_t e = 0; cut && e < nb; e++) {
+        uint32_t a = pc->source_vertex[origin[be[2 * e]]];
+        uint32_t b = pc->source_vertex[origin[be[2 * e + 1]]];
+        uint32_t key[2] = {a < b ? a : b, a < b ? b : a};
+        if (!ns || !bsearch(key, sbe, ns, 2 * sizeof *sbe, edge_cmp))
+            cut[be[2 * e]] = cut[be[2 * e + 1]] = 1;
+    }
+    return cut;
+}
+
+static double longest_side(const phks_mesh *mesh)
+{
+    const double *xyz = phks_mesh_vertices(mesh);
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, side = 0;
+    double hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (size_t v = 0; v < phks_mesh_vertex_count(mesh); v++)
+        for (int c = 0; c < 3; c++) {
+            lo[c] = fmin(lo[c], xyz[3 * v + c]);
+            hi[c] = fmax(hi[c], xyz[3 * v + c]);
+        }
+    for (int c = 0; c < 3; c++)
+        side = fmax(side, hi[c] - lo[c]);
+    return side;
+}
+
+static int near_cut(const double p[3], const double *xyz,
+                    const unsigned char *cut, size_t n, double r)
+{
+    for (size_t v = 0; v < n; v++) {
+        const double *q = xyz + 3 * v;
+        double d2 = (p[0] - q[0]) * (p[0] - q[0]) +
+                    (p[1] - q[1]) * (p[1] - q[1]) +
+                    (p[2] - q[2]) * (p[2] - q[2]);
+        if (cut[v] && d2 <= r * r)
+            return 1;
+    }
+    return 0;
+}
+
+/* Feature points, and for comparison all vertices, of the piece within r
+ * of a cut vertex. */
+static void count_near_cut(const phks_mesh *src, const piece *pc,
+                           const phks_mesh *mesh, bench_item *it)
+{
+    unsigned char *cut = cut_vertices(src, pc, mesh);
+    double r = BENCH_CUT_RADIUS * longest_side(src);
+    size_t n = phks_mesh_vertex_count(mesh);
+    const double *xyz = phks_mesh_vertices(mesh);
+    if (!cut)
+        return;
+    it->features = phks_signature_feature_count(it->sig);
+    for (size_t f = 0; f < it->features; f++) {
+        double p[3];
+        phks_signature_feature_position(it->sig, f, p);
+        it->near_cut += (size_t)near_cut(p, xyz, cut, n, r);
+    }
+    it->vertices = n;
+    for (size_t v = 0; v < n; v++)
+        it->vertices_near_cut +=
+            cut[v] || near_cut(xyz + 3 * v, xyz, cut, n, r);
+    free(cut);
+}
+
+/* ---- one item ------------------------------------------------------------ */
+static phks_status make_version(const phks_mesh *src, int kind, uint64_t seed,
+                                piece *pc, phks_mesh **mesh,
+                                const char **reason)
+{
+    const double *xyz = phks_mesh_vertices(src);
+    const uint32_t *tri = phks_mesh_triangles(src);
+    size_t n = phks_mesh_vertex_count(src), m = phks_mesh_triangle_count(src);
+    int rc = kind == KIND_PARTIAL
+                 ? piece_partial_scan(xyz, n, tri, m, seed, pc)
+                 : piece_incomplete(xyz, n, tri, m, seed, pc);
+    if (rc != 0) {
+        *reason = "the generator kept no triangle (or ran out of memory)";
+        return PHKS_ERROR_NO_TRIANGLES;
+    }
+    return phks_mesh_create(pc->xyz, pc->vertex_count, pc->triangles,
+                            pc->triangle_count, mesh);
+}
+
+static phks_status compute(bench_plan *p, bench_item *it, uint64_t seed,
+                           const char **reason)
+{
+    const bench_model *model = &p->models[it->model];
+    phks_mesh *src = NULL, *mesh = NULL;
+    piece pc = {0};
+    char *cached = NULL;
+    phks_status st = phks_mesh_load(model->row->path, &src);
+    if (st == PHKS_OK && it->kind == KIND_COMPLETE)
+        mesh = src;
+    else if (st == PHKS_OK)
+        st = make_version(src, it->kind, seed, &pc, &mesh, reason);
+    if (st == PHKS_OK && p->cache_dir) {
+        cached = cache_path(p, it, seed, mesh);
+        it->sig = cache_load(cached);
+        it->cached = it->sig != NULL;
+    }
+    if (st == PHKS_OK && !it->sig &&
+        (st = phks_signature_compute(mesh, &p->options, &it->sig)) == PHKS_OK)
+        cache_store(cached, it->sig);
+    if (st == PHKS_OK && model->is_query && it->kind != KIND_COMPLETE)
+        count_near_cut(src, &pc, mesh, it);
+    free(cached);
+    if (mesh != src)
+        phks_mesh_free(mesh);
+    phks_mesh_free(src);
+    piece_free(&pc);
+    return st;
+}
+
+void bench_compute(void *ctx, size_t index)
+{
+    bench_plan *p = ctx;
+    bench_item *it = &p->items[index];
+    const char *path = p->models[it->model].row->path;
+    uint64_t seed = it->kind == KIND_COMPLETE
+        ? 0 : bench_seed(it->seed, p->models[it->model].row->name, it->kind);
+    const char *reason = NULL;
+    phks_status st = compute(p, it, seed, &reason);
+    if (st != PHKS_OK && !reason)
+        reason = cli_reason(path, st);
+    if (st != PHKS_OK && it->kind == KIND_COMPLETE)
+        cli_say(stderr, "phks: %s: %s\n", path, reason);
+    else if (st != PHKS_OK)
+        cli_say(stderr, "phks: %s: %s version of seed %u: %s\n", path,
+                bench_kind_name[it->kind], it->seed, reason);
+    cli_progress_step();
+}

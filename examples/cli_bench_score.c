@@ -1,0 +1,199 @@
+/*
+ * cli_bench_score.c - one seed of `phks bench`: its database in memory, its
+ * queries, and the markdown tables of the counts.
+ */
+#include "cli_bench.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+static const size_t top_k[3] = {1, 3, 5};
+
+size_t bench_item_of(const bench_plan *plan, size_t model, int kind,
+                     unsigned seed)
+{
+    const bench_model *m = &plan->models[model];
+    if (kind == KIND_COMPLETE)
+        return m->first_item;
+    if (!m->is_query)
+        return m->first_item + seed - 1;
+    return m->first_item + 1 + 2 * (size_t)(seed - 1) + (kind - KIND_PARTIAL);
+}
+
+/* The database of seed: every database model's one version, in order. */
+static phks_status fill_db(const bench_plan *p, unsigned seed, phks_db *db,
+                           bench_tally *t)
+{
+    phks_db_entry *e = malloc((p->model_count + 1) * sizeof *e);
+    if (!e)
+        return PHKS_ERROR_OUT_OF_MEMORY;
+    size_t n = 0;
+    for (size_t m = 0; m < p->model_count; m++) {
+        const bench_model *model = &p->models[m];
+        if (model->is_query)
+            continue;
+        const bench_item *it = &p->items[bench_item_of(p, m, model->db_kind,
+                                                       seed)];
+        if (!it->sig) {
+            t->db_failed[model->db_kind]++;
+            continue;
+        }
+        t->db_entries[model->db_kind]++;
+        e[n++] = (phks_db_entry){model->row->name, model->row->cls, it->sig};
+    }
+    phks_status st = n ? phks_db_add_batch(db, e, n, NULL) : PHKS_OK;
+    free(e);
+    return st;
+}
+
+/* Rank (1..) of the first hit of class cls, 0 when none. */
+static size_t first_rank(const phks_hit *hits, size_t count, const char *cls)
+{
+    for (size_t r = 0; r < count; r++)
+        if (strcmp(hits[r].label, cls) == 0)
+            return r + 1;
+    return 0;
+}
+
+static void run_query(const bench_plan *p, phks_db *db, size_t m, int kind,
+                      unsigned seed, bench_tally *t, FILE *out)
+{
+    const cli_row *row = p->models[m].row;
+    const bench_item *it = &p->items[bench_item_of(p, m, kind, seed)];
+    phks_hit hits[BENCH_QUERY_DEPTH];
+    size_t count = 0;
+    phks_status st = it->sig ? phks_db_query(db, it->sig, BENCH_QUERY_DEPTH,
+                                             hits, &count)
+                             : PHKS_ERROR_INVALID_ARGUMENT;
+    if (it->sig && st != PHKS_OK)
+        cli_say_fail(row->path, st);
+    if (st != PHKS_OK) {
+        t->failed[kind]++;
+        if (out)
+            fprintf(out, "%s\t%s\t%u\t%s\t-1\t\n", row->name,
+                    bench_kind_name[kind], seed, row->cls);
+        return;
+    }
+    size_t rank = first_rank(hits, count, row->cls);
+    t->queries[kind]++;
+    for (int k = 0; k < 3; k++)
+        t->top[kind][k] += rank && rank <= top_k[k];
+    if (kind != KIND_COMPLETE) {
+        t->cut_queries[kind]++;
+        t->features[kind] += it->features;
+        t->near_cut[kind] += it->near_cut;
+        t->vertices[kind] += it->vertices;
+        t->vertices_near_cut[kind] += it->vertices_near_cut;
+    }
+    if (out)
+        fprintf(out, "%s\t%s\t%u\t%s\t%zu\t%s\n", row->name,
+                bench_kind_name[kind], seed, row->cls, rank,
+                count ? hits[0].label : "");
+}
+
+int bench_score_seed(const bench_plan *plan, unsigned seed, bench_tally *tally,
+                     FILE *queries_out)
+{
+    phks_db *db;
+    phks_status st = phks_db_open(":memory:", PHKS_DB_CREATE, &db);
+    if (st == PHKS_OK)
+        st = fill_db(plan, seed, db, tally);
+    if (st != PHKS_OK) {
+        cli_say_fail(":memory:", st);
+        phks_db_close(db);
+        return 1;
+    }
+    for (size_t m = 0; m < plan->model_count; m++)
+        for (int k = 0; plan->models[m].is_query && k < KIND_COUNT; k++)
+            run_query(plan, db, m, k, seed, tally, queries_out);
+    phks_db_close(db);
+    return 0;
+}
+
+void bench_tally_add(bench_tally *sum, const bench_tally *t)
+{
+    for (int k = 0; k < KIND_COUNT; k++) {
+        sum->queries[k] += t->queries[k];
+        sum->failed[k] += t->failed[k];
+        for (int j = 0; j < 3; j++)
+            sum->top[k][j] += t->top[k][j];
+        sum->cut_queries[k] += t->cut_queries[k];
+        sum->features[k] += t->features[k];
+        sum->near_cut[k] += t->near_cut[k];
+        sum->vertices[k] += t->vertices[k];
+        sum->vertices_near_cut[k] += t->vertices_near_cut[k];
+        sum->db_entries[k] += t->db_entries[k];
+        sum->db_failed[k] += t->db_failed[k];
+    }
+}
+
+/* ---- tables ---------------------------------------------------------------- */
+static const struct {
+    const char *name;
+    unsigned kinds;  /* bit per kind */
+} rows[] = {{"complete", 1}, {"partial", 2}, {"incomplete", 4},
+            {"partial+incomplete", 6}, {"all", 7}};
+
+static size_t sum(const size_t *per_kind, unsigned kinds)
+{
+    size_t s = 0;
+    for (int k = 0; k < KIND_COUNT; k++)
+        s += kinds >> k & 1 ? per_kind[k] : 0;
+    return s;
+}
+
+static void percent(size_t part, size_t whole)
+{
+    if (whole)
+        printf(" %.1f |", 100.0 * (double)part / (double)whole);
+    else
+        printf(" - |");
+}
+
+static void print_retrieval(const bench_tally *t)
+{
+    printf("| queries | n | failed | Top-1 | Top-3 | Top-5 |\n"
+           "|---|---:|---:|---:|---:|---:|\n");
+    for (size_t r = 0; r < sizeof rows / sizeof rows[0]; r++) {
+        size_t n = sum(t->queries, rows[r].kinds);
+        printf("| %s | %zu | %zu |", rows[r].name, n,
+               sum(t->failed, rows[r].kinds));
+        for (int k = 0; k < 3; k++) {
+            size_t hits = 0;
+            for (int kind = 0; kind < KIND_COUNT; kind++)
+                hits += rows[r].kinds >> kind & 1 ? t->top[kind][k] : 0;
+            percent(hits, n);
+        }
+        printf("\n");
+    }
+}
+
+static void print_cut(const bench_tally *t)
+{
+    printf("\nFeature points on or next to the cut (within %g of the longest "
+           "side of the source's bounding box from a cut vertex), and for "
+           "comparison the share of the pieces' vertices there:\n\n"
+           "| queries | n | features | next to the cut | percent | "
+           "vertices next to the cut, percent |\n"
+           "|---|---:|---:|---:|---:|---:|\n", BENCH_CUT_RADIUS);
+    for (size_t r = 1; r < 4; r++) {
+        size_t f = sum(t->features, rows[r].kinds);
+        size_t c = sum(t->near_cut, rows[r].kinds);
+        printf("| %s | %zu | %zu | %zu |", rows[r].name,
+               sum(t->cut_queries, rows[r].kinds), f, c);
+        percent(c, f);
+        percent(sum(t->vertices_near_cut, rows[r].kinds),
+                sum(t->vertices, rows[r].kinds));
+        printf("\n");
+    }
+}
+
+void bench_print_tally(const bench_tally *t, const char *title)
+{
+    printf("\n## %s\n\nDatabase: %zu entries (%zu complete, %zu partial, %zu "
+           "incomplete), %zu failed.\n\n", title, sum(t->db_entries, 7),
+           t->db_entries[0], t->db_entries[1], t->db_entries[2],
+           sum(t->db_failed, 7));
+    print_retrieval(t);
+    print_cut(t);
+}

@@ -1,0 +1,206 @@
+/*
+ * cli_db.c - `phks db query | list | remove` (and the dispatch to `db add`,
+ * in cli_db_add.c): shape databases through the phks_db_* functions.
+ */
+#include "cli.h"
+
+#include <inttypes.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define PAGE 256
+
+/* A JSON string: quotes, backslashes and control characters escaped, bytes
+ * that are not UTF-8 replaced by U+FFFD. */
+static void json_string(const char *s)
+{
+    const unsigned char *p = (const unsigned char *)s;
+    putchar('"');
+    while (*p) {
+        size_t len = *p < 0x80 ? 1 : (*p >> 5) == 6 ? 2 : (*p >> 4) == 14 ? 3
+                   : (*p >> 3) == 30 ? 4 : 0;
+        size_t ok = len;
+        for (size_t i = 1; i < len; i++)
+            if ((p[i] & 0xc0) != 0x80)
+                ok = 0;
+        if (*p == '"' || *p == '\\')
+            printf("\\%c", *p);
+        else if (*p < 0x20)
+            printf("\\u%04x", *p);
+        else if (ok)
+            fwrite(p, 1, len, stdout);
+        else
+            fputs("\\ufffd", stdout);
+        p += ok ? ok : 1;
+    }
+    putchar('"');
+}
+
+static void print_hits(const phks_hit *hits, size_t count, int json)
+{
+    if (!json) {
+        printf("%4s %8s %14s  %-16s %s\n", "rank", "id", "score", "label",
+               "name");
+        for (size_t i = 0; i < count; i++)
+            printf("%4zu %8" PRId64 " %14.6g  %-16s %s\n", i + 1, hits[i].id,
+                   hits[i].score, hits[i].label, hits[i].name);
+        return;
+    }
+    printf("[");
+    for (size_t i = 0; i < count; i++) {
+        printf("%s\n  {\"rank\": %zu, \"id\": %" PRId64 ", \"score\": %.17g, "
+               "\"label\": ", i ? "," : "", i + 1, hits[i].id, hits[i].score);
+        json_string(hits[i].label);
+        printf(", \"name\": ");
+        json_string(hits[i].name);
+        printf("}");
+    }
+    printf("%s]\n", count ? "\n" : "");
+}
+
+static int db_query(int argc, char **argv, const phks_options *options)
+{
+    const char *k_text = "10";
+    int json = 0, n;
+    const cli_opt opts[] = {{"-k", &k_text, NULL}, {"--json", NULL, &json}};
+    unsigned long k;
+    if (cli_parse(argc, argv, 1, opts, 2, &n) != 0 || n != 2 ||
+        cli_parse_count(k_text, 1, 1000000, &k) != 0)
+        return cli_usage("db query DB MESH|SIG [-k K] [--json]");
+    phks_db *db;
+    phks_status st = phks_db_open(argv[1], PHKS_DB_READONLY, &db);
+    if (st != PHKS_OK)
+        return cli_fail(argv[1], st);
+    size_t entries = 0;
+    if ((st = phks_db_count(db, &entries)) != PHKS_OK) {
+        phks_db_close(db);
+        return cli_fail(argv[1], st);
+    }
+    k = k < entries ? k : entries ? entries : 1;  /* room for what exists */
+    phks_signature *query = cli_signature_of(argv[2], options);
+    phks_hit *hits = query ? malloc(k * sizeof *hits) : NULL;
+    size_t count = 0;
+    int rc = 1;
+    if (query && !hits)
+        cli_error(argv[1], "out of memory");
+    else if (hits && (st = phks_db_query(db, query, k, hits, &count)) != PHKS_OK)
+        cli_fail(argv[1], st);
+    else if (hits) {
+        print_hits(hits, count, json);
+        rc = 0;
+    }
+    free(hits);
+    phks_signature_free(query);
+    phks_db_close(db);
+    return rc;
+}
+
+/* phks_db_get with buffers that grow until the name and label fit. */
+static phks_status get_entry(phks_db *db, int64_t id, phks_signature **sig,
+                             char **name, char **label, size_t *cap)
+{
+    for (;;) {
+        phks_status st = phks_db_get(db, id, sig, *name, *cap, *label, *cap);
+        if (st != PHKS_ERROR_BUFFER_TOO_SMALL || *cap >= ((size_t)1 << 26))
+            return st;
+        char *n = realloc(*name, *cap * 4), *l = n ? realloc(*label, *cap * 4) : NULL;
+        if (n)
+            *name = n;
+        if (!n || !l)
+            return PHKS_ERROR_OUT_OF_MEMORY;
+        *label = l;
+        *cap *= 4;
+    }
+}
+
+static phks_status list_page(phks_db *db, const int64_t *ids, size_t count,
+                             char **name, char **label, size_t *cap)
+{
+    for (size_t i = 0; i < count; i++) {
+        phks_signature *sig;
+        phks_status st = get_entry(db, ids[i], &sig, name, label, cap);
+        if (st != PHKS_OK)
+            return st;
+        printf("%8" PRId64 "  %-16s %8zu  %s\n", ids[i], *label,
+               phks_signature_feature_count(sig), *name);
+        phks_signature_free(sig);
+    }
+    return PHKS_OK;
+}
+
+static int db_list(int argc, char **argv)
+{
+    int n;
+    if (cli_parse(argc, argv, 1, NULL, 0, &n) != 0 || n != 1)
+        return cli_usage("db list DB");
+    phks_db *db;
+    phks_status st = phks_db_open(argv[1], PHKS_DB_READONLY, &db);
+    if (st != PHKS_OK)
+        return cli_fail(argv[1], st);
+    size_t cap = 1024, count = PAGE;
+    char *name = malloc(cap), *label = malloc(cap);
+    int64_t ids[PAGE], after = 0;
+    st = name && label ? PHKS_OK : PHKS_ERROR_OUT_OF_MEMORY;
+    if (st == PHKS_OK)
+        printf("%8s  %-16s %8s  %s\n", "id", "label", "features", "name");
+    while (st == PHKS_OK && count == PAGE &&
+           (st = phks_db_list(db, after, ids, PAGE, &count)) == PHKS_OK &&
+           count > 0) {
+        st = list_page(db, ids, count, &name, &label, &cap);
+        after = ids[count - 1];
+    }
+    free(name);
+    free(label);
+    phks_db_close(db);
+    return st == PHKS_OK ? 0 : cli_fail(argv[1], st);
+}
+
+static int parse_id(const char *text, int64_t *id)
+{
+    char *end;
+    if (*text < '0' || *text > '9')
+        return -1;
+    unsigned long long v = strtoull(text, &end, 10);
+    *id = (int64_t)v;
+    return *end || v == 0 || v > INT64_MAX ? -1 : 0;
+}
+
+static int db_remove(int argc, char **argv)
+{
+    int n, rc = 0;
+    int64_t id;
+    if (cli_parse(argc, argv, 1, NULL, 0, &n) != 0 || n < 2)
+        return cli_usage("db remove DB ID...");
+    for (int i = 2; i <= n; i++)
+        if (parse_id(argv[i], &id) != 0)
+            return cli_usage("db remove DB ID...  (ids are positive integers)");
+    phks_db *db;
+    phks_status st = phks_db_open(argv[1], 0, &db);
+    if (st != PHKS_OK)
+        return cli_fail(argv[1], st);
+    for (int i = 2; i <= n; i++) {
+        parse_id(argv[i], &id);
+        if ((st = phks_db_remove(db, id)) != PHKS_OK)
+            rc = cli_fail(argv[1], st);
+        else
+            printf("removed %" PRId64 "\n", id);
+    }
+    phks_db_close(db);
+    return rc;
+}
+
+int cli_db(int argc, char **argv, const phks_options *options)
+{
+    const char *sub = argc > 1 ? argv[1] : "";
+    if (strcmp(sub, "add") == 0)
+        return cli_db_add(argc - 1, argv + 1, options);
+    if (strcmp(sub, "query") == 0)
+        return db_query(argc - 1, argv + 1, options);
+    if (strcmp(sub, "list") == 0)
+        return db_list(argc - 1, argv + 1);
+    if (strcmp(sub, "remove") == 0)
+        return db_remove(argc - 1, argv + 1);
+    if (*sub)
+        fprintf(stderr, "phks: unknown db command %s\n", sub);
+    return cli_usage("db add|query|list|remove DB ...");
+}

@@ -1,0 +1,130 @@
+/*
+ * phks.c - the `phks` command-line tool: signatures, matching,
+ * segmentation, shape databases and the paper's retrieval benchmark, over
+ * the public API. docs/cli.md is its manual.
+ *
+ *   phks [global options] COMMAND ARGS...  (global options anywhere)
+ */
+#include "cli.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+static const char usage_text[] =
+    "usage: phks [--operator literal|random-walk] [--threads N]\n"
+    "            [--boundary-margin X] [--hks-scaling none|mean] COMMAND ...\n"
+    "  phks signature MESH [-o SIG]\n"
+    "  phks match A B                  (meshes or .sig files)\n"
+    "  phks segment MESH -o OUT.ply\n"
+    "  phks db add DB FILES... [--label L] [-j N]\n"
+    "  phks db add DB --manifest TSV [-j N]\n"
+    "  phks db query DB MESH|SIG [-k K] [--json]\n"
+    "  phks db list DB\n"
+    "  phks db remove DB ID...\n"
+    "  phks bench MANIFEST [--prefix P] [--classes A,B] [--max-per-class M]\n"
+    "             [--seeds N] [--cache DIR] [--queries-out TSV] [-j N]\n"
+    "  phks --version | --help\n";
+
+static const char *const globals[] = {"--operator", "--threads",
+                                      "--boundary-margin", "--hks-scaling"};
+
+static int is_global(const char *arg)
+{
+    for (size_t i = 0; i < sizeof globals / sizeof globals[0]; i++)
+        if (strcmp(arg, globals[i]) == 0)
+            return 1;
+    return 0;
+}
+
+/* Sets global option `name` to v; 0, or -1 when v is not a valid value. */
+static int set_global(const char *name, const char *v, phks_options *o)
+{
+    unsigned long count;
+    char *end;
+    if (!v)
+        return -1;
+    if (strcmp(name, "--operator") == 0) {
+        if (strcmp(v, "literal") != 0 && strcmp(v, "random-walk") != 0)
+            return -1;
+        o->operator_kind = strcmp(v, "literal") == 0
+                               ? PHKS_OPERATOR_LITERAL
+                               : PHKS_OPERATOR_RANDOM_WALK;
+    } else if (strcmp(name, "--threads") == 0) {
+        if (cli_parse_count(v, 0, 1024, &count) != 0)
+            return -1;
+        o->threads = (uint32_t)count;
+    } else if (strcmp(name, "--hks-scaling") == 0) {
+        if (strcmp(v, "none") != 0 && strcmp(v, "mean") != 0)
+            return -1;
+        o->hks_scaling = strcmp(v, "none") == 0 ? PHKS_HKS_SCALING_NONE
+                                                : PHKS_HKS_SCALING_MEAN;
+    } else {
+        double margin = strtod(v, &end);
+        if (end == v || *end || !(margin >= 0 && margin <= 100))
+            return -1;
+        o->boundary_margin = margin;
+    }
+    return 0;
+}
+
+/* Takes the global options out of argv, wherever they are (up to "--"),
+ * into o. Returns the new argc, or -1 after a message. */
+static int take_globals(int argc, char **argv, phks_options *o)
+{
+    int n = 1;
+    for (int i = 1; i < argc; i++) {
+        if (strcmp(argv[i], "--") == 0) {
+            while (i < argc)
+                argv[n++] = argv[i++];
+            break;
+        }
+        if (!is_global(argv[i])) {
+            argv[n++] = argv[i];
+            continue;
+        }
+        const char *v = i + 1 < argc ? argv[i + 1] : NULL;
+        if (set_global(argv[i], v, o) != 0) {
+            fprintf(stderr, "phks: %s: bad or missing value%s%s\n", argv[i],
+                    v ? " " : "", v ? v : "");
+            return -1;
+        }
+        i++;
+    }
+    argv[n] = NULL;
+    return n;
+}
+
+int main(int argc, char **argv)
+{
+    phks_options o;
+    phks_options_init(&o);
+    argc = take_globals(argc, argv, &o);
+    if (argc < 0) {
+        fputs(usage_text, stderr);
+        return 2;
+    }
+    const char *cmd = argc > 1 ? argv[1] : "";
+    if (strcmp(cmd, "--help") == 0 || strcmp(cmd, "-h") == 0) {
+        fputs(usage_text, stdout);
+        return 0;
+    }
+    if (strcmp(cmd, "--version") == 0) {
+        printf("phks (libphks %s)\n", phks_version_string());
+        return 0;
+    }
+    static const struct {
+        const char *name;
+        int (*run)(int, char **, const phks_options *);
+    } commands[] = {
+        {"signature", cli_signature}, {"match", cli_match},
+        {"segment", cli_segment},     {"db", cli_db},
+        {"bench", cli_bench},
+    };
+    for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++)
+        if (strcmp(cmd, commands[i].name) == 0)
+            return commands[i].run(argc - 1, argv + 1, &o);
+    if (*cmd)
+        fprintf(stderr, "phks: unknown command %s\n", cmd);
+    fputs(usage_text, stderr);
+    return 2;
+}

@@ -1,0 +1,203 @@
+#!/bin/sh
+# test_cli.sh PHKS - every command of the `phks` tool on small meshes made
+# here: exit statuses, outputs, files written, and the messages for bad
+# input. POSIX sh; needs awk.
+set -u
+phks=$1
+case $phks in /*) ;; *) phks=$(pwd)/$phks ;; esac
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+cd "$tmp" || exit 1
+
+fail() {
+    echo "FAIL: $*" >&2
+    echo "--- stdout" >&2; cat out >&2
+    echo "--- stderr" >&2; cat err >&2
+    exit 1
+}
+# run CMD...: stdout in ./out, stderr in ./err, exit status in $rc.
+run() {
+    "$@" >out 2>err
+    rc=$?
+}
+expect_rc() { [ "$rc" = "$1" ] || fail "${2:-}: exit status $rc, expected $1"; }
+expect_out() { grep -q -- "$1" out || fail "${2:-}: stdout lacks '$1'"; }
+expect_err() { grep -q -- "$1" err || fail "${2:-}: stderr lacks '$1'"; }
+
+# blob NU NV A B C BUMP FREQ: a closed bumpy ellipsoid as OFF, 2 + NU (NV-1)
+# vertices; the bumps (FREQ of them around the equator) give the heat
+# kernel distinct maxima.
+blob() {
+    awk -v nu="$1" -v nv="$2" -v a="$3" -v b="$4" -v c="$5" -v k="$6" \
+        -v f="$7" 'BEGIN {
+        pi = atan2(0, -1)
+        n = 2 + (nv - 1) * nu
+        print "OFF"
+        print n, 2 * nu * (nv - 1), 0
+        print 0, 0, c
+        for (i = 1; i < nv; i++) {
+            t = pi * i / nv
+            for (j = 0; j < nu; j++) {
+                p = 2 * pi * j / nu
+                r = 1 + k * (1 + cos(f * p)) * sin(t) ^ 4
+                printf "%.9f %.9f %.9f\n", a * r * sin(t) * cos(p),
+                    b * r * sin(t) * sin(p), c * cos(t)
+            }
+        }
+        print 0, 0, -c
+        for (j = 0; j < nu; j++)
+            print 3, 0, 1 + j, 1 + (j + 1) % nu
+        for (i = 1; i < nv - 1; i++)
+            for (j = 0; j < nu; j++) {
+                p = 1 + (i - 1) * nu + j
+                q = 1 + (i - 1) * nu + (j + 1) % nu
+                print 3, p, p + nu, q + nu
+                print 3, p, q + nu, q
+            }
+        s = n - 1
+        base = 1 + (nv - 2) * nu
+        for (j = 0; j < nu; j++)
+            print 3, s, base + (j + 1) % nu, base + j
+    }'
+}
+
+mkdir -p set/star set/bar
+blob 24 12 1.0 1.0 0.5 0.35 3 > a.off
+blob 24 12 1.0 0.9 0.5 0.30 3 > b.off
+for i in 0 1 2 3; do
+    blob 24 12 1.0 1.0 0.5 0.3$i 3 > set/star/$i.off
+    blob 24 12 1.$i 0.4 0.3 0.0$i 2 > set/bar/$i.off
+done
+printf 'not a mesh\n' > bad.off
+printf 'file\tclass\tn_vertices\tn_faces\n' > set/MANIFEST.tsv
+for c in star bar; do
+    for i in 0 1 2 3; do
+        printf '%s/%s.off\t%s\t266\t528\n' $c $i $c >> set/MANIFEST.tsv
+    done
+done
+
+# ---- usage ------------------------------------------------------------------
+run "$phks" --help;          expect_rc 0 "--help"; expect_out "usage: phks"
+run "$phks";                 expect_rc 2 "no command"; expect_err "usage: phks"
+run "$phks" frobnicate;      expect_rc 2 "unknown command"
+expect_err "unknown command frobnicate"
+run "$phks" --version;       expect_rc 0 "--version"; expect_out "libphks"
+run "$phks" signature;       expect_rc 2 "signature without mesh"
+expect_err "usage: phks signature MESH"
+run "$phks" signature a.off --bogus; expect_rc 2 "unknown option"
+expect_err "unknown option --bogus"
+run "$phks" --operator sideways signature a.off; expect_rc 2 "bad operator"
+expect_err "phks: --operator: bad or missing value sideways"
+run "$phks" signature a.off --threads; expect_rc 2 "--threads without value"
+
+# ---- signature --------------------------------------------------------------
+run "$phks" signature a.off -o a.sig; expect_rc 0 "signature"
+expect_out "a.off: 266 vertices, 528 triangles"
+expect_out "features x 15 scales"
+expect_out "wrote a.sig"
+[ "$(head -c 4 a.sig)" = PHKS ] || fail "a.sig does not start with PHKS"
+run "$phks" signature a.sig;  expect_rc 0 "signature of a blob"
+expect_out "persistence"
+run "$phks" signature missing.off; expect_rc 1 "missing mesh"
+expect_err "^phks: missing.off: "
+run "$phks" signature bad.off; expect_rc 1 "bad mesh"
+expect_err "^phks: bad.off: "
+printf 'PHKS garbage' > bad.sig
+run "$phks" signature bad.sig; expect_rc 1 "bad blob"
+expect_err "^phks: bad.sig: "
+
+# ---- match ------------------------------------------------------------------
+run "$phks" match a.off b.off; expect_rc 0 "match meshes"
+expect_out "^score "; expect_out "position in A"
+run "$phks" match a.sig a.off; expect_rc 0 "match blob and mesh"
+expect_out "^score 0$"
+run "$phks" match a.sig b.off --operator random-walk; expect_rc 1 \
+    "match of different options"
+expect_err "different options"
+run "$phks" match a.off; expect_rc 2 "match with one file"
+run "$phks" match a.off missing.off; expect_rc 1 "match with a missing file"
+expect_err "^phks: missing.off: "
+
+# ---- segment ----------------------------------------------------------------
+run "$phks" segment a.off -o seg.ply; expect_rc 0 "segment"
+expect_out "regions of HKS"; expect_out "wrote seg.ply"
+head -1 seg.ply | grep -q '^ply$' || fail "seg.ply: no ply magic"
+grep -q '^element face 528$' seg.ply || fail "seg.ply: face count"
+grep -q '^property uchar red$' seg.ply || fail "seg.ply: no face colour"
+faces=$(awk 'NF == 7 && $1 == 3' seg.ply | wc -l)
+[ "$faces" -eq 528 ] || fail "seg.ply: $faces face lines"
+grep -q ' 255 255 255$' seg.ply || fail "seg.ply: no feature faces"
+colours=$(awk 'NF == 7 && $1 == 3 { print $5, $6, $7 }' seg.ply | sort -u |
+          wc -l)
+[ "$colours" -ge 3 ] || fail "seg.ply: only $colours colours"
+run "$phks" segment a.off; expect_rc 2 "segment without -o"
+expect_err "usage: phks segment"
+run "$phks" segment bad.off -o x.ply; expect_rc 1 "segment of a bad mesh"
+expect_err "^phks: bad.off: "
+
+# ---- db ---------------------------------------------------------------------
+# With -j 1 the ids follow the command line; with more workers, completion.
+run "$phks" db add t.db a.off b.off --label blob -j 1; expect_rc 0 "db add"
+expect_out "^added 1 a.off$"; expect_out "2 added, 0 failed"
+run "$phks" db list t.db; expect_rc 0 "db list"
+expect_out "^ *1  blob  *[0-9][0-9]*  a.off$"; expect_out "^ *2  blob .* b.off$"
+run "$phks" db add t.db missing.off set/star/0.off; expect_rc 1 \
+    "db add with a missing file"
+expect_err "^phks: missing.off: "; expect_out "1 added, 1 failed"
+run "$phks" db add m.db --manifest set/MANIFEST.tsv -j 2; expect_rc 0 \
+    "db add --manifest"
+expect_out "8 added"
+run "$phks" db list m.db; expect_rc 0 "db list of the manifest"
+expect_out "bar .* bar/3.off"; expect_out "star .* star/0.off"
+run "$phks" db query t.db a.sig -k 2; expect_rc 0 "db query"
+expect_out "^ *1 *1 *0 *blob *a.off$"
+[ "$(wc -l < out)" -eq 3 ] || fail "db query -k 2: not 2 hits"
+run "$phks" db query t.db a.off --json -k 1; expect_rc 0 "db query --json"
+expect_out '"rank": 1, "id": 1, "score": 0, "label": "blob", "name": "a.off"'
+if command -v python3 >/dev/null; then
+    python3 -c 'import json,sys; assert len(json.load(sys.stdin)) == 1' \
+        < out || fail "db query --json: not JSON"
+fi
+run "$phks" db query t.db a.off -k 0; expect_rc 2 "db query -k 0"
+run "$phks" db query missing.db a.off; expect_rc 1 "db query of no db"
+expect_err "^phks: missing.db: "
+run "$phks" db query bad.off a.off; expect_rc 1 "db query of a non-db"
+expect_err "^phks: bad.off: "
+run "$phks" db remove t.db 1; expect_rc 0 "db remove"
+run "$phks" db list t.db; expect_rc 0 "db list after remove"
+grep -q 'a.off' out && fail "db remove: a.off still listed"
+run "$phks" db remove t.db 1; expect_rc 1 "db remove of a removed id"
+expect_err "^phks: t.db: "
+run "$phks" db remove t.db one; expect_rc 2 "db remove of a non-number"
+run "$phks" db frob t.db; expect_rc 2 "unknown db command"
+
+# ---- bench ------------------------------------------------------------------
+run "$phks" bench set/MANIFEST.tsv --prefix "" --cache cache \
+    --queries-out q.tsv -j 2
+expect_rc 0 "bench"
+expect_out "| queries | n | failed | Top-1 | Top-3 | Top-5 |"
+expect_out "^| all | "; expect_out "^| partial+incomplete | "
+expect_out "next to the cut"
+expect_out "8 models: 2 query models (6 queries per seed), 6 database models"
+expect_out "Signatures: 12 computed, 0 from the cache"
+[ "$(wc -l < q.tsv)" -eq 7 ] || fail "bench: q.tsv has not 7 lines"
+head -1 q.tsv | grep -q "^file	kind	seed	class	rank	top1_label$" ||
+    fail "bench: q.tsv header"
+[ "$(ls cache | grep -c '^[0-9a-f]\{16\}\.sig$')" -eq 12 ] ||
+    fail "bench: cache has not 12 signatures"
+cp q.tsv q1.tsv
+run "$phks" bench set/MANIFEST.tsv --prefix "" --cache cache \
+    --queries-out q.tsv -j 1
+expect_rc 0 "bench from the cache"
+expect_out "Signatures: 0 computed, 12 from the cache"
+cmp -s q.tsv q1.tsv || fail "bench: results differ with the cache and -j 1"
+run "$phks" bench set/MANIFEST.tsv --prefix "" --seeds 2 --classes star \
+    --max-per-class 4
+expect_rc 0 "bench --seeds 2"
+expect_out "^## Seed 2"; expect_out "^## All seeds (pooled)"
+run "$phks" bench set/MANIFEST.tsv --prefix "" --classes nope
+expect_rc 1 "bench of an unknown class"; expect_err "no class nope"
+run "$phks" bench missing.tsv; expect_rc 1 "bench of a missing manifest"
+expect_err "^phks: missing.tsv: "
+run "$phks" bench set/MANIFEST.tsv --seeds 0; expect_rc 2 "bench --seeds 0"
+echo "cli: all checks passed"
