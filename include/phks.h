@@ -59,7 +59,7 @@ extern "C" {
  * a program built against an older header runs with a newer library.
  */
 #define PHKS_VERSION_MAJOR 0
-#define PHKS_VERSION_MINOR 1
+#define PHKS_VERSION_MINOR 2
 #define PHKS_VERSION_PATCH 0
 #define PHKS_VERSION_NUMBER \
     (PHKS_VERSION_MAJOR * 10000 + PHKS_VERSION_MINOR * 100 + PHKS_VERSION_PATCH)
@@ -203,7 +203,10 @@ typedef enum phks_stage {
 /* Called from the thread that called the long-running function, with the
  * fraction of the current stage done (0..1). Return 0 to continue, non-zero
  * to cancel: the function then returns PHKS_ERROR_CANCELLED promptly (the
- * eigen-solver checks between operator applications). */
+ * eigen-solver checks between operator applications). With HKS-simp,
+ * PHKS_STAGE_OPERATOR covers choosing the samples and their operator, and
+ * PHKS_STAGE_HKS the extension to every vertex; both report several times
+ * a second on a million vertices. */
 typedef int (*phks_progress_fn)(void *user, phks_stage stage, double fraction);
 
 typedef struct phks_options {
@@ -220,7 +223,9 @@ typedef struct phks_options {
                                 800 900 1000                              */
     double feature_scale;    /* time of the HKS whose maxima are the
                                 feature points, in units of tau: 5        */
-    int32_t operator_kind;   /* phks_operator: PHKS_OPERATOR_LITERAL     */
+    int32_t operator_kind;   /* phks_operator: PHKS_OPERATOR_RANDOM_WALK
+                                (the paper's is LITERAL; see
+                                docs/retrieval.md for the measurements) */
     int32_t box;             /* phks_box: PHKS_BOX_PRINCIPAL             */
     int32_t solver;          /* phks_solver: PHKS_SOLVER_AUTO            */
     uint32_t threads;        /* worker threads for the operator; 0 = one
@@ -232,16 +237,22 @@ typedef struct phks_options {
     void *progress_user;     /* passed back to progress                  */
     /* Fields below were carved out of `reserved` after 0.1.0; zero gives
      * the paper's behaviour. */
-    double boundary_margin;  /* feature points are chosen among the
-                                maxima at least this far from the mesh
-                                boundary, in units of the width
-                                sqrt(4 feature_scale tau) of the heat
-                                kernel they come from (0: anywhere)       */
-    int32_t hks_scaling;     /* phks_hks_scaling                         */
-    uint32_t simplify_above; /* meshes with more vertices go through
-                                HKS-simp (a heat-based subsample carries
-                                the eigen-solve): 25000; 0 = never       */
-    uint32_t simplify_target;/* vertices HKS-simp aims to keep: 10000   */
+    double boundary_margin;  /* feature points are picked on HKS tapered
+                                to zero at the mesh boundary: times
+                                1 - exp(-(d / m)^2), d the straight-line
+                                distance to the boundary in the unit box,
+                                m = boundary_margin sqrt(4 feature_scale
+                                tau), the width of the heat kernel the
+                                points come from. Feature vectors are not
+                                tapered. 2; 0 = none, as in the paper     */
+    int32_t hks_scaling;     /* phks_hks_scaling: NONE                   */
+    uint32_t simplify_above; /* meshes with more vertices (and more than
+                                simplify_target) go through HKS-simp
+                                (see Spectrum): 25000; 0 = never. Not
+                                compared between signatures: a large
+                                mesh stays comparable with small ones    */
+    uint32_t simplify_target;/* samples HKS-simp aims for (it keeps
+                                within a few percent): 10000; 16..10^8   */
     uint32_t reserved32;     /* zero                                     */
     uint64_t reserved[21];   /* zero; room for fields of later versions  */
 } phks_options;
@@ -340,6 +351,27 @@ PHKS_API double phks_mesh_area(const phks_mesh *mesh);
  * joins); eigenvectors are M-orthonormal: phi_i^T M phi_j = delta_ij. Each
  * eigenvector's sign is fixed so that its entry of largest magnitude is
  * positive, which makes results repeatable.
+ *
+ * Large meshes (HKS-simp, the paper's section 4.1 and appendix B): a mesh
+ * with more than options->simplify_above vertices (and more than
+ * simplify_target) is not solved whole; the operator of a million-vertex
+ * mesh would hold 10^4 entries per row. About simplify_target vertices
+ * are kept as samples: the local maxima of the heat diagonal at time
+ * 2 tau, plus vertices wherever those leave a gap, so that no region is
+ * left out. Each sample carries the area of the vertices nearest to it.
+ * The operator above is built on the samples with those areas, and its
+ * eigenvectors are extended to any vertex w by the Nystrom formula
+ *   phi(w) = sum_p A_p W(w,p) phi(p) / (sum_p A_p W(w,p) - 4 pi h^2 lambda)
+ * (random walk: divided by (1 - h lambda) sum_p A_p W(w,p)) over the
+ * samples p within the cut-off, which gives back phi(p) at a sample.
+ * Memory stays O(vertex_count + samples x eigen_count): no eigenvector is
+ * ever held for every vertex. Such a spectrum's eigenvectors and mass have
+ * one entry per sample (phks_spectrum_sample_count and
+ * phks_spectrum_sample_vertices say which); phks_spectrum_hks gives every
+ * vertex's HKS through the extension. The HKS is an approximation: on a
+ * 5-10k-vertex shape reduced to 1500 samples it correlates with the exact
+ * one above 0.99 at t = 5, 40 and 100 tau (docs/benchmarks.md has the
+ * figures on 30k-vertex meshes).
  */
 typedef struct phks_spectrum phks_spectrum;
 
@@ -354,20 +386,33 @@ PHKS_API phks_status phks_spectrum_compute(const phks_mesh *mesh,
 PHKS_API void phks_spectrum_free(phks_spectrum *spectrum);
 /* Number of eigenpairs (0 for NULL). */
 PHKS_API size_t phks_spectrum_count(const phks_spectrum *spectrum);
-/* Length of each eigenvector: the mesh's vertex count. */
+/* The mesh's vertex count: how many values phks_spectrum_hks writes. */
 PHKS_API size_t phks_spectrum_vertex_count(const phks_spectrum *spectrum);
+/* Entries of each eigenvector and of the mass: the vertex count for an
+ * exact spectrum, the number of samples for one made by HKS-simp (0 for
+ * NULL). */
+PHKS_API size_t phks_spectrum_sample_count(const phks_spectrum *spectrum);
+/* The mesh vertex of each entry (sample_count values, ascending); NULL for
+ * an exact spectrum, whose entry i is vertex i, and for NULL. */
+PHKS_API const uint32_t *phks_spectrum_sample_vertices(
+    const phks_spectrum *spectrum);
 /* The eigenvalues, ascending, in units of 1 / (unit-box length)^2. */
 PHKS_API const double *phks_spectrum_eigenvalues(const phks_spectrum *spectrum);
-/* Eigenvector i (vertex_count values), or NULL if i is out of range. */
+/* Eigenvector i (sample_count values), or NULL if i is out of range. */
 PHKS_API const double *phks_spectrum_eigenvector(const phks_spectrum *spectrum,
                                                  size_t i);
-/* The diagonal of M (vertex_count values): the inner product under which
- * the eigenvectors are orthonormal. */
+/* The diagonal of M (sample_count values): the inner product under which
+ * the eigenvectors are orthonormal. With HKS-simp, a sample's entry is the
+ * area it stands for (times its kernel density for the random walk). */
 PHKS_API const double *phks_spectrum_mass(const phks_spectrum *spectrum);
 /* HKS_t(x) = sum_i exp(-t lambda_i) phi_i(x)^2 for every vertex x, into out
  * (vertex_count values). t is absolute time on the unit-box mesh (t = 5 tau
- * is 0.001 by default), t >= 0. Errors: PHKS_ERROR_INVALID_ARGUMENT.
- * Thread-safe. */
+ * is 0.001 by default), t >= 0. With HKS-simp each call extends every
+ * eigenvector to every vertex on the spectrum's options->threads threads:
+ * about a second per million vertices and 10k samples (single-precision
+ * products: values agree with the per-vertex extension to about 1e-6
+ * relative). Errors: PHKS_ERROR_INVALID_ARGUMENT, and with HKS-simp
+ * PHKS_ERROR_OUT_OF_MEMORY. Thread-safe. */
 PHKS_API phks_status phks_spectrum_hks(const phks_spectrum *spectrum, double t,
                                        double *out);
 
@@ -516,6 +561,22 @@ PHKS_API phks_status phks_match(const phks_signature *a,
  * Thread-safety: one handle may be used from many threads at once; queries
  * run in parallel, writes are serialised. Several processes may open the
  * same file; each sees the others' committed writes at its next call.
+ *
+ * Durability: the file uses SQLite's WAL journal (readers never block the
+ * writer) with synchronous=FULL: a write is on disk when its call returns,
+ * so a killed process, a system crash or a power loss keeps every
+ * committed write. That costs one fsync per transaction: add many
+ * signatures with phks_db_add_batch. A call that finds the file locked by
+ * another connection's write waits for it up to 5 s, then returns
+ * PHKS_ERROR_IO.
+ *
+ * Any function may also return PHKS_ERROR_CORRUPT when it meets a damaged
+ * file, PHKS_ERROR_UNSUPPORTED_VERSION when it meets a signature stored by
+ * a newer library in a newer blob format, and PHKS_ERROR_OUT_OF_MEMORY.
+ * SQLite allocates through its own allocator, not through
+ * phks_set_allocator(). The packed copy takes 8 x scale_count x (feature
+ * count rounded up to 8) bytes per entry, 1.9 KB with the default options
+ * (1.9 GB for a million entries).
  */
 typedef struct phks_db phks_db;
 
@@ -524,8 +585,10 @@ typedef struct phks_db phks_db;
 #define PHKS_DB_CREATE 0x2u   /* create the file if it does not exist     */
 
 /* Opens (or, with PHKS_DB_CREATE, creates) the database at path; ":memory:"
- * gives a private database in memory. Errors: PHKS_ERROR_INVALID_ARGUMENT
- * (NULL, unknown flags, READONLY with CREATE), PHKS_ERROR_IO (missing file
+ * gives a private database in memory (CREATE implied, READONLY refused).
+ * An existing empty file is given the schema unless READONLY. Errors:
+ * PHKS_ERROR_INVALID_ARGUMENT (NULL, "", unknown flags, READONLY with
+ * CREATE or with ":memory:"), PHKS_ERROR_IO (missing file
  * without CREATE, unreadable, locked too long), PHKS_ERROR_CORRUPT (not a
  * libphks database, or damaged), PHKS_ERROR_UNSUPPORTED_VERSION (written by
  * a newer format), PHKS_ERROR_OUT_OF_MEMORY. */
@@ -536,11 +599,13 @@ PHKS_API phks_status phks_db_open(const char *path, unsigned flags,
 PHKS_API void phks_db_close(phks_db *db);
 
 /* Adds a signature under name and label (UTF-8, copied; label may be NULL
- * or "" for none) and sets *id (may be NULL) to its new id, which is never
- * reused. Errors: PHKS_ERROR_INVALID_ARGUMENT (NULL db, name or signature;
- * read-only database), PHKS_ERROR_INCOMPATIBLE (made with other options
- * than the database's), PHKS_ERROR_IO (disk full, file not writable, busy),
- * PHKS_ERROR_OUT_OF_MEMORY. On failure nothing is added. */
+ * or "" for none, and reads back as "") and sets *id (may be NULL) to its
+ * new id, which is never reused. Errors: PHKS_ERROR_INVALID_ARGUMENT (NULL
+ * db, name or signature; name or label not valid UTF-8; a signature
+ * without features; read-only database), PHKS_ERROR_INCOMPATIBLE (made
+ * with other options than the database's), PHKS_ERROR_IO (disk full, file
+ * not writable, busy), PHKS_ERROR_OUT_OF_MEMORY. On failure nothing is
+ * added. */
 PHKS_API phks_status phks_db_add(phks_db *db, const char *name,
                                  const char *label,
                                  const phks_signature *signature, int64_t *id);
@@ -599,7 +664,10 @@ typedef struct phks_hit {
 
 /* The k entries with the lowest phks_score against query, best first; ties
  * go to the lower id. hits needs room for k records; *count gets
- * min(k, entries). The scores are exactly phks_score's. Errors:
+ * min(k, entries). The scores are exactly phks_score's. The first query
+ * of a handle, and the first after another connection committed, reads
+ * every entry into the packed copy (seconds for a million entries); the
+ * others only scan it. Errors:
  * PHKS_ERROR_INVALID_ARGUMENT (NULL, k = 0), PHKS_ERROR_INCOMPATIBLE (query
  * made with other options than the database's), PHKS_ERROR_IO,
  * PHKS_ERROR_OUT_OF_MEMORY. Many threads may query one handle at once. */

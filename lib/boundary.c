@@ -1,8 +1,8 @@
 /*
- * boundary.c - which vertices lie close to the mesh boundary. A cut or a
- * scan's silhouette inflates the heat kernel signature next to it (heat
- * that would have flowed across the cut stays), so feature points can be
- * kept away from it.
+ * boundary.c - distances to the mesh boundary. A cut or a scan's
+ * silhouette inflates the heat kernel signature next to it (heat that would
+ * have flowed across the cut stays), so the function that picks feature
+ * points is tapered to zero there.
  */
 #include "internal.h"
 
@@ -35,12 +35,15 @@ static phks_status boundary_points(const phks_mesh *mesh, double scale,
     return PHKS_OK;
 }
 
-static bool any_within(const phks_grid *g, const double *points,
-                       const double *q, double radius)
+/* Distance from q to the nearest point of the grid, or cap if none is
+ * nearer (the grid's cells are at least cap wide). */
+static double nearest_within(const phks_grid *g, const double *points,
+                             const double *q, double cap)
 {
     long c[3];
     for (int d = 0; d < 3; d++)
         c[d] = (long)floor((q[d] - g->origin[d]) / g->cell);
+    double best = cap * cap;
     for (long z = c[2] - 1; z <= c[2] + 1; z++)
         for (long y = c[1] - 1; y <= c[1] + 1; y++)
             for (long x = c[0] - 1; x <= c[0] + 1; x++) {
@@ -53,35 +56,34 @@ static bool any_within(const phks_grid *g, const double *points,
                      k++) {
                     const double *p = points + 3 * (size_t)g->points[k];
                     double dx = p[0] - q[0], dy = p[1] - q[1], dz = p[2] - q[2];
-                    if (dx * dx + dy * dy + dz * dz < radius * radius)
-                        return true;
+                    best = fmin(best, dx * dx + dy * dy + dz * dz);
                 }
             }
-    return false;
+    return sqrt(best);
 }
 
-phks_status phks_near_boundary(const phks_mesh *mesh, double scale,
-                               double radius, const uint32_t *vertices,
-                               size_t count, bool *near)
+phks_status phks_boundary_distance(const phks_mesh *mesh, double scale,
+                                   double cap, double *distance)
 {
-    for (size_t i = 0; i < count; i++)
-        near[i] = false;
-    if (mesh->boundary_edge_count == 0 || !(radius > 0))
+    size_t n = mesh->vertex_count;
+    for (size_t v = 0; v < n; v++)
+        distance[v] = cap;
+    if (mesh->boundary_edge_count == 0)
         return PHKS_OK;
     double *points = NULL;
     size_t found = 0;
     phks_status st = boundary_points(mesh, scale, &points, &found);
     if (st != PHKS_OK)
         return st;
-    /* The grid may coarsen its cells; they never get smaller than radius,
-     * so the 27 cells around a point still hold every point within it. */
+    /* The grid may coarsen its cells; they never get smaller than cap, so
+     * the 27 cells around a point hold every point within cap of it. */
     phks_grid grid = {0};
-    st = phks_grid_build(points, found, 1, radius, &grid);
-    for (size_t i = 0; st == PHKS_OK && i < count; i++) {
+    st = phks_grid_build(points, found, 1, cap, &grid);
+    for (size_t v = 0; st == PHKS_OK && v < n; v++) {
         double q[3];
         for (int d = 0; d < 3; d++)
-            q[d] = mesh->xyz[3 * (size_t)vertices[i] + d] * scale;
-        near[i] = any_within(&grid, points, q, radius);
+            q[d] = mesh->xyz[3 * v + d] * scale;
+        distance[v] = nearest_within(&grid, points, q, cap);
     }
     phks_grid_release(&grid);
     phks_free(points);

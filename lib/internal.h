@@ -123,11 +123,11 @@ phks_status phks_grid_build(const double *xyz, size_t n, double scale,
 void phks_grid_release(phks_grid *grid);
 
 /* ---- boundary proximity (boundary.c) */
-/* near[i] = whether a vertex on a boundary edge lies within radius of
- * vertices[i], positions scaled by scale (all false on a closed mesh). */
-phks_status phks_near_boundary(const phks_mesh *mesh, double scale,
-                               double radius, const uint32_t *vertices,
-                               size_t count, bool *near);
+/* distance[v] = straight-line distance from vertex v to the nearest vertex
+ * on a boundary edge, positions scaled by scale, capped at cap (cap > 0;
+ * all cap on a closed mesh). */
+phks_status phks_boundary_distance(const phks_mesh *mesh, double scale,
+                                   double cap, double *distance);
 
 /* ---- sparse symmetric operator (laplacian.c) */
 /* The symmetric matrix B = Mh^-1/2 S Mh^-1/2 in CSR form (both triangles
@@ -164,17 +164,28 @@ phks_status phks_eigen_dense(const phks_operator_matrix *op, size_t k,
                              const phks_options *opt, double *values,
                              double *vectors);
 
-/* ---- spectrum (spectrum.c, hks.c) */
+/* ---- spectrum (spectrum.c, hks.c; HKS-simp in simp.h) */
 struct phks_spectrum {
-    size_t n, count;
+    size_t n, count;      /* n: the mesh's vertex count               */
     double *values;       /* count, ascending                         */
-    double *vectors;      /* n x count column-major, Mh-orthonormal   */
-    double *mass;         /* Mh                                       */
+    double *vectors;      /* rows x count column-major, Mh-orthonormal;
+                             rows = n, or ext->m with HKS-simp        */
+    double *mass;         /* n: Mh of every mesh vertex (with HKS-simp
+                             its area times Mh / A of its sample), so
+                             the sum is the total mass either way     */
     phks_options options; /* resolved options it was computed with    */
+    struct phks_extension *ext; /* HKS-simp: the samples and what the
+                             extension to every vertex needs; NULL for
+                             an exact spectrum                        */
 };
 
-/* HKS_t at one vertex: sum_i exp(-t lambda_i) phi_i(v)^2. */
+/* HKS_t at one vertex: sum_i exp(-t lambda_i) phi_i(v)^2 (through the
+ * extension with HKS-simp). */
 double phks_hks_at(const phks_spectrum *spec, double t, size_t v);
+/* HKS_t at every vertex into out (n values), reporting PHKS_STAGE_HKS
+ * progress through opt (its threads too); t finite and >= 0. */
+phks_status phks_hks_all(const phks_spectrum *spec, double t,
+                         const phks_options *opt, double *out);
 
 /* ---- signature (signature.c, signature_codec.c, score.c) */
 struct phks_signature {
@@ -239,8 +250,10 @@ size_t phks_db_padded(size_t features);
 void phks_db_cache_init(phks_db_cache *cache);
 void phks_db_cache_release(phks_db_cache *cache);
 /* Appends an entry whose id is above every id held, with vectors of the
- * same length as the others. PHKS_ERROR_OUT_OF_MEMORY leaves the cache as
- * it was. */
+ * same length as the others. Returns PHKS_ERROR_OUT_OF_MEMORY (the cache
+ * is left as it was) or PHKS_ERROR_INVALID_ARGUMENT (id out of order,
+ * other length, no features) without setting a message: the caller,
+ * whose own call may still succeed, decides what to report. */
 phks_status phks_db_cache_append(phks_db_cache *cache, int64_t id,
                                  const char *name, const char *label,
                                  const phks_signature *signature);
@@ -251,8 +264,5 @@ void phks_db_cache_remove(phks_db_cache *cache, int64_t id);
 phks_status phks_db_cache_query(const phks_db_cache *cache,
                                 const phks_signature *query, size_t k,
                                 phks_hit *hits, size_t *count);
-/* Copies src into dst (PHKS_DB_TEXT_MAX + 1 bytes), cut at a UTF-8
- * character boundary; returns the bytes copied. */
-size_t phks_db_copy_text(char *dst, const char *src);
 
 #endif /* PHKS_INTERNAL_H */

@@ -91,48 +91,29 @@ static double hks_factor(const phks_spectrum *spec, const phks_options *opt,
     return mass / trace;
 }
 
-/* The persistent maxima of h that become feature points: the most
- * persistent `wanted`, skipping those within the boundary margin. When
- * every maximum is that close (a sliver of a mesh), the margin is dropped
- * rather than returning no feature at all. */
-static phks_status pick_features(const phks_mesh *mesh, const double *h,
-                                 const phks_options *opt, size_t wanted,
-                                 phks_maximum **out, size_t *found)
+/* Tapers h to zero at the mesh boundary: h(v) (1 - exp(-(d(v) / m)^2)),
+ * d the distance to the boundary in the unit box, m the margin. A cut
+ * piece's HKS rises towards the cut (heat that would have crossed it
+ * stays), so without this every maximum of a partial scan sits on its
+ * silhouette; with it, the boundary is a minimum and the maxima are those
+ * the piece shares with its whole. */
+static phks_status taper_at_boundary(const phks_mesh *mesh,
+                                     const phks_options *opt, double *h)
 {
-    bool margin = opt->boundary_margin > 0 && mesh->boundary_edge_count > 0;
-    size_t room = margin ? mesh->triangle_count : wanted;
-    phks_maximum *maxima = phks_malloc_array(room, sizeof *maxima);
-    uint32_t *vertex = margin ? phks_malloc_array(room, sizeof *vertex) : NULL;
-    bool *near = margin ? phks_malloc_array(room, sizeof *near) : NULL;
-    phks_status st = PHKS_OK;
-    if (!maxima || (margin && (!vertex || !near)))
-        st = phks_fail_oom("feature points");
+    if (opt->boundary_margin == 0 || mesh->boundary_edge_count == 0)
+        return PHKS_OK;
+    double scale, m = opt->boundary_margin * sqrt(4 * opt->feature_scale * opt->tau);
+    double *d = phks_malloc_array(mesh->vertex_count, sizeof *d);
+    if (!d)
+        return phks_fail_oom("boundary taper");
+    /* Beyond 6 m the taper differs from 1 by less than e^-36. */
+    phks_status st = phks_unit_box_scale(mesh, (phks_box)opt->box, &scale);
     if (st == PHKS_OK)
-        st = phks_persistent_maxima(mesh, h, room, 0, maxima, found, NULL);
-    double scale = 1;
-    if (st == PHKS_OK && margin)
-        st = phks_unit_box_scale(mesh, (phks_box)opt->box, &scale);
-    if (st == PHKS_OK && margin) {
-        for (size_t i = 0; i < *found; i++)
-            vertex[i] = maxima[i].vertex;
-        double radius = opt->boundary_margin * sqrt(4 * opt->feature_scale * opt->tau);
-        st = phks_near_boundary(mesh, scale, radius, vertex, *found, near);
-    }
-    if (st == PHKS_OK && margin) {
-        size_t kept = 0;
-        for (size_t i = 0; i < *found && kept < wanted; i++)
-            if (!near[i])
-                maxima[kept++] = maxima[i];
-        *found = kept ? kept : (*found < wanted ? *found : wanted);
-    }
-    phks_free(vertex);
-    phks_free(near);
-    if (st != PHKS_OK) {
-        phks_free(maxima);
-        return st;
-    }
-    *out = maxima;
-    return PHKS_OK;
+        st = phks_boundary_distance(mesh, scale, 6 * m, d);
+    for (size_t v = 0; st == PHKS_OK && v < mesh->vertex_count; v++)
+        h[v] *= -expm1(-(d[v] / m) * (d[v] / m));
+    phks_free(d);
+    return st;
 }
 
 phks_status phks_signature_from_spectrum(const phks_mesh *mesh,
@@ -166,14 +147,19 @@ phks_status phks_signature_from_spectrum(const phks_mesh *mesh,
         goto done;
     }
     double t_feature = opt.feature_scale * opt.tau;
-    st = phks_spectrum_hks(spec, t_feature, h);
+    st = phks_hks_all(spec, t_feature, &opt, h);
     double factor = hks_factor(spec, &opt, t_feature);
     for (size_t v = 0; v < n; v++)
         h[v] *= factor;
     if (st == PHKS_OK)
         st = phks_progress(&opt, PHKS_STAGE_PERSISTENCE, 0);
     if (st == PHKS_OK)
-        st = pick_features(mesh, h, &opt, wanted, &maxima, &found);
+        st = taper_at_boundary(mesh, &opt, h);
+    maxima = st == PHKS_OK ? phks_malloc_array(wanted, sizeof *maxima) : NULL;
+    if (st == PHKS_OK && !maxima)
+        st = phks_fail_oom("feature points");
+    if (st == PHKS_OK)
+        st = phks_persistent_maxima(mesh, h, wanted, 0, maxima, &found, NULL);
     if (st == PHKS_OK)
         st = phks_signature_alloc(found, opt.scale_count, &sig);
     if (st != PHKS_OK)

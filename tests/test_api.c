@@ -71,6 +71,10 @@ START_TEST(options_defaults_are_the_papers)
     ck_assert_uint_eq(o.scale_count, 15);
     for (int i = 0; i < 15; i++)
         ck_assert_double_eq(o.scales[i], scales[i]);
+    /* The documented departures for partial shapes (docs/retrieval.md). */
+    ck_assert_int_eq(o.operator_kind, PHKS_OPERATOR_RANDOM_WALK);
+    ck_assert_double_eq(o.boundary_margin, 2);
+    ck_assert_int_eq(o.hks_scaling, PHKS_HKS_SCALING_NONE);
     ck_assert_int_eq(phks_options_init(NULL), PHKS_ERROR_INVALID_ARGUMENT);
 }
 END_TEST

@@ -111,7 +111,7 @@ run "$phks" match a.off b.off; expect_rc 0 "match meshes"
 expect_out "^score "; expect_out "position in A"
 run "$phks" match a.sig a.off; expect_rc 0 "match blob and mesh"
 expect_out "^score 0$"
-run "$phks" match a.sig b.off --operator random-walk; expect_rc 1 \
+run "$phks" match a.sig b.off --operator literal; expect_rc 1 \
     "match of different options"
 expect_err "different options"
 run "$phks" match a.off; expect_rc 2 "match with one file"

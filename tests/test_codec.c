@@ -186,8 +186,17 @@ START_TEST(incompatible_options_refuse_to_score)
     b->options.scales[14] = 999;
     ck_assert_int_eq(phks_score(a, b, &score), PHKS_ERROR_INCOMPATIBLE);
     b->options.scales[14] = a->options.scales[14];
-    b->options.operator_kind = PHKS_OPERATOR_RANDOM_WALK;
+    b->options.operator_kind = PHKS_OPERATOR_LITERAL;
     ck_assert_int_eq(phks_score(a, b, &score), PHKS_ERROR_INCOMPATIBLE);
+    b->options.operator_kind = a->options.operator_kind;
+    b->options.boundary_margin = 0;
+    ck_assert_int_eq(phks_score(a, b, &score), PHKS_ERROR_INCOMPATIBLE);
+    b->options.boundary_margin = a->options.boundary_margin;
+    b->options.hks_scaling = PHKS_HKS_SCALING_MEAN;
+    ck_assert_int_eq(phks_score(a, b, &score), PHKS_ERROR_INCOMPATIBLE);
+    b->options.hks_scaling = a->options.hks_scaling;
+    b->options.simplify_above = 7; /* does not change what is compared */
+    ck_assert_int_eq(phks_score(a, b, &score), PHKS_OK);
     b->options.operator_kind = a->options.operator_kind;
     b->options.solver = PHKS_SOLVER_ARPACK; /* does not change the numbers */
     ck_assert_int_eq(phks_score(a, b, &score), PHKS_OK);

@@ -215,6 +215,7 @@ static void check_sphere(unsigned subdiv, double tau, double tol_high_l,
     phks_options opt;
     phks_options_init(&opt);
     opt.box = PHKS_BOX_AXIS_ALIGNED;
+    opt.operator_kind = PHKS_OPERATOR_LITERAL; /* the oracle's operator */
     opt.solver = solver;
     opt.eigen_count = EIGEN_COUNT;
     opt.tau = tau;
