@@ -88,7 +88,7 @@ int piece_incomplete(const double *xyz, size_t vertex_count,
  * accepted when the largest piece holds 50-90% of the total triangle
  * area. If planes is not NULL it receives plane_count * 4 numbers
  * {n.x, n.y, n.z, e} (room for 8); plane_count, if not NULL, receives 1
- * or 2 (0 on failure). This is shape_crop's convention (shapes.h). */
+ * or 2 (0 on failure). */
 int piece_incomplete_planes(const double *xyz, size_t vertex_count,
                             const uint32_t *triangles, size_t triangle_count,
                             uint64_t seed, piece *out, double planes[8],

@@ -110,13 +110,4 @@ int shape_transform(shape_mesh *mesh, const double rotation[9], double scale,
  * determined by seed. */
 void shape_random_rotation(uint64_t seed, double rotation[9]);
 
-/* Keeps the triangles whose centroid c satisfies
- * plane[0] c.x + plane[1] c.y + plane[2] c.z + plane[3] >= 0 and the
- * vertices they use, in their former order: an incomplete model with a
- * boundary. origin, if not NULL, needs room for the former vertex count
- * and receives for each kept vertex its former index. Returns -1 (and
- * leaves the mesh as it was) for NULL arguments or when no triangle would
- * remain, -2 when out of memory. */
-int shape_crop(shape_mesh *mesh, const double plane[4], uint32_t *origin);
-
 #endif
