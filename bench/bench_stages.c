@@ -3,13 +3,30 @@
  * per mesh. Stage boundaries come from the progress callback, so this
  * measures exactly what an application sees through the public API.
  *
- *   bench-stages [--solver auto|lanczos|arpack|dense] [--cutoff C] MESH...
+ *   bench-stages [--solver auto|lanczos|arpack|dense] [--cutoff C]
+ *                [--simplify-above N] [--simplify-target N]
+ *                [--decimate N] MESH...
  *
  * Each mesh runs in its own child process so that the peak resident
- * memory it reports (getrusage at its end) is its own.
+ * memory it reports (getrusage at its end) is its own. "gap" is the
+ * longest time between two progress reports: how long a cancellation
+ * may wait.
+ *
+ * --decimate N first reduces each mesh to about N vertices by quadric
+ * decimation (meshoptimizer's meshopt_simplify; only when the benchmark
+ * was built with it): a way to time sizes that no file in ../shared has,
+ * such as 500k vertices from the 1.6M-vertex armadillo. The decimation is
+ * not timed; the peak memory is then the high-water mark from after it
+ * (reset through /proc/self/clear_refs; marked * where that fails, when
+ * it includes the decimation of the larger mesh).
  */
 #include "phks.h"
 
+#ifdef HAVE_MESHOPTIMIZER
+#include <meshoptimizer.h>
+#endif
+
+#include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -27,6 +44,8 @@ static double now(void)
 
 typedef struct {
     double start[PHKS_STAGE_COUNT], end[PHKS_STAGE_COUNT];
+    double last, gap; /* the longest time between two reports: how long a
+                         cancellation can wait */
 } stage_times;
 
 static int on_progress(void *user, phks_stage stage, double fraction)
@@ -36,21 +55,94 @@ static int on_progress(void *user, phks_stage stage, double fraction)
     if (t->start[stage] == 0)
         t->start[stage] = x;
     t->end[stage] = x;
+    if (t->last > 0 && x - t->last > t->gap)
+        t->gap = x - t->last;
+    t->last = x;
     (void)fraction;
     return 0;
 }
 
+/* The quadric decimation of mesh to about `target` vertices (NULL when
+ * meshoptimizer is missing or fails). */
+static phks_mesh *decimate(const phks_mesh *mesh, size_t target)
+{
+#ifdef HAVE_MESHOPTIMIZER
+    size_t n = phks_mesh_vertex_count(mesh), nt = phks_mesh_triangle_count(mesh);
+    const double *xyz = phks_mesh_vertices(mesh);
+    const uint32_t *tri = phks_mesh_triangles(mesh);
+    float *pos = malloc(3 * n * sizeof *pos);
+    unsigned *out = malloc(3 * nt * sizeof *out);
+    phks_mesh *dec = NULL;
+    if (pos && out) {
+        for (size_t i = 0; i < 3 * n; i++)
+            pos[i] = (float)xyz[i];
+        /* About two triangles per vertex; no error bound. */
+        size_t got = meshopt_simplify(out, tri, 3 * nt, pos, n, 3 * sizeof(float),
+                                      6 * target, 1.0f, 0, NULL);
+        phks_mesh_create(xyz, n, out, got / 3, &dec);
+    }
+    free(pos);
+    free(out);
+    return dec;
+#else
+    (void)mesh;
+    (void)target;
+    fprintf(stderr, "bench-stages: built without meshoptimizer, no --decimate\n");
+    return NULL;
+#endif
+}
+
+/* Resets the peak resident memory (Linux); false where it cannot. */
+static bool reset_peak(void)
+{
+    FILE *f = fopen("/proc/self/clear_refs", "w");
+    if (!f)
+        return false;
+    bool ok = fputs("5", f) >= 0;
+    return fclose(f) == 0 && ok;
+}
+
+/* Peak resident memory in MB: VmHWM, or getrusage's maximum. */
+static double peak_mb(void)
+{
+    FILE *f = fopen("/proc/self/status", "r");
+    char line[256];
+    while (f && fgets(line, sizeof line, f))
+        if (strncmp(line, "VmHWM:", 6) == 0) {
+            fclose(f);
+            return atof(line + 6) / 1024;
+        }
+    if (f)
+        fclose(f);
+    struct rusage use;
+    getrusage(RUSAGE_SELF, &use);
+    return (double)use.ru_maxrss / 1024;
+}
+
 /* Child: prints one table row and exits. */
-static int run(const char *path, const phks_options *base)
+static int run(const char *path, const phks_options *base, size_t decimate_to)
 {
     phks_options opt = *base;
-    stage_times t = {{0}, {0}};
+    stage_times t = {{0}, {0}, 0, 0};
     opt.progress = on_progress;
     opt.progress_user = &t;
     double t0 = now();
     phks_mesh *mesh;
     phks_status st = phks_mesh_load(path, &mesh);
     double t1 = now();
+    bool clean_peak = true;
+    double load = t1 - t0;
+    if (st == PHKS_OK && decimate_to) {
+        phks_mesh *dec = decimate(mesh, decimate_to);
+        phks_mesh_free(mesh);
+        if (!dec) {
+            printf("%-34s decimation failed\n", path);
+            return 1;
+        }
+        mesh = dec;
+        clean_peak = reset_peak();
+        t1 = now();
+    }
     phks_signature *sig = NULL;
     if (st == PHKS_OK)
         st = phks_signature_compute(mesh, &opt, &sig);
@@ -60,15 +152,14 @@ static int run(const char *path, const phks_options *base)
         return 1;
     }
     const char *name = strrchr(path, '/') ? strrchr(path, '/') + 1 : path;
-    printf("%-28s %8zu %7.2f", name, phks_mesh_vertex_count(mesh), t1 - t0);
+    printf("%-28s %8zu %7.2f", name, phks_mesh_vertex_count(mesh), load);
     /* A stage lasts from its first report to the next stage's first. */
     for (int s = 0; s < PHKS_STAGE_COUNT; s++) {
         double end = s + 1 < PHKS_STAGE_COUNT ? t.start[s + 1] : t2;
         printf(" %8.3f", end - t.start[s]);
     }
-    struct rusage use;
-    getrusage(RUSAGE_SELF, &use);
-    printf(" %8.3f %8.0f\n", t2 - t1, (double)use.ru_maxrss / 1024);
+    printf(" %8.3f %6.2f %8.0f%s\n", t2 - t1, t.gap, peak_mb(),
+           clean_peak ? "" : "*");
     fflush(stdout);
     phks_signature_free(sig);
     phks_mesh_free(mesh);
@@ -80,6 +171,7 @@ int main(int argc, char **argv)
     phks_options opt;
     phks_options_init(&opt);
     int first = 1;
+    size_t decimate_to = 0;
     for (; first + 1 < argc && argv[first][0] == '-'; first += 2) {
         const char *v = argv[first + 1];
         if (strcmp(argv[first], "--solver") == 0)
@@ -89,21 +181,32 @@ int main(int argc, char **argv)
                                                     : PHKS_SOLVER_AUTO;
         else if (strcmp(argv[first], "--cutoff") == 0)
             opt.cutoff = atof(v);
+        else if (strcmp(argv[first], "--simplify-above") == 0)
+            opt.simplify_above = (uint32_t)strtoul(v, NULL, 10);
+        else if (strcmp(argv[first], "--simplify-target") == 0)
+            opt.simplify_target = (uint32_t)strtoul(v, NULL, 10);
+        else if (strcmp(argv[first], "--decimate") == 0)
+            decimate_to = (size_t)strtoul(v, NULL, 10);
     }
     if (first >= argc) {
-        fprintf(stderr, "usage: bench-stages [--solver S] [--cutoff C] MESH...\n");
+        fprintf(stderr, "usage: bench-stages [--solver S] [--cutoff C] "
+                        "[--simplify-above N] [--simplify-target N] "
+                        "[--decimate N] MESH...\n");
         return 2;
     }
-    printf("libphks %s, cutoff %.2f, times in seconds\n", phks_version_string(),
-           opt.cutoff);
-    printf("%-28s %8s %7s %8s %8s %8s %8s %8s %8s\n", "mesh", "vertices", "load",
-           "operator", "eigen", "hks", "persist", "total", "peak MB");
+    printf("libphks %s, cutoff %.2f, HKS-simp above %u vertices (target %u), "
+           "times in seconds\n",
+           phks_version_string(), opt.cutoff, opt.simplify_above,
+           opt.simplify_target);
+    printf("%-28s %8s %7s %8s %8s %8s %8s %8s %6s %8s\n", "mesh", "vertices",
+           "load", "operator", "eigen", "hks", "persist", "total", "gap",
+           "peak MB");
     int failures = 0;
     for (int i = first; i < argc; i++) {
         fflush(stdout);
         pid_t pid = fork();
         if (pid == 0)
-            _exit(run(argv[i], &opt));
+            _exit(run(argv[i], &opt, decimate_to));
         int status = 0;
         if (pid < 0 || waitpid(pid, &status, 0) < 0) {
             perror("bench-stages");

@@ -5,6 +5,7 @@
  */
 #include "internal.h"
 
+#include <float.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -19,13 +20,31 @@
  * edge structure. */
 #define DEGENERATE_AREA 1e-12
 
+/* Edges longer than 2^240 or shorter than 2^-240 would overflow or
+ * underflow the fourth powers below (an area of infinity at coordinates
+ * of 1e100, of 0 at 1e-100): they are scaled by a power of two first,
+ * which is exact. In between, the arithmetic is the plain formula's. */
 double phks_triangle_area(const double *a, const double *b, const double *c)
 {
     double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
     double v[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+    double m = 0;
+    for (int k = 0; k < 3; k++)
+        m = fmax(m, fmax(fabs(u[k]), fabs(v[k])));
+    if (!isfinite(m))
+        return m > 0 ? INFINITY : NAN; /* an edge beyond DBL_MAX, or NaN */
+    int e = 0;
+    if (m > 0x1p240 || (m > 0 && m < 0x1p-240)) {
+        e = ilogb(m);
+        for (int k = 0; k < 3; k++) {
+            u[k] = ldexp(u[k], -e);
+            v[k] = ldexp(v[k], -e);
+        }
+    }
     double n[3] = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2],
                    u[0] * v[1] - u[1] * v[0]};
-    return 0.5 * sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    double area = 0.5 * sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    return e ? ldexp(area, 2 * e) : area;
 }
 
 void phks_mesh_free(phks_mesh *mesh)
@@ -69,19 +88,31 @@ static phks_status check_input(const double *xyz, size_t vertex_count,
     return PHKS_OK;
 }
 
-static double bbox_diagonal_squared(const double *xyz, size_t n)
+/* The bounding-box diagonal d and its square d2, which overflows for
+ * extents above about 1e154 and underflows below 1e-154 (d does not). */
+static void bbox_diagonal(const double *xyz, size_t n, double *d, double *d2)
 {
     double lo[3] = {INFINITY, INFINITY, INFINITY};
     double hi[3] = {-INFINITY, -INFINITY, -INFINITY};
     for (size_t i = 0; i < n; i++)
-        for (int d = 0; d < 3; d++) {
-            lo[d] = fmin(lo[d], xyz[3 * i + d]);
-            hi[d] = fmax(hi[d], xyz[3 * i + d]);
+        for (int k = 0; k < 3; k++) {
+            lo[k] = fmin(lo[k], xyz[3 * i + k]);
+            hi[k] = fmax(hi[k], xyz[3 * i + k]);
         }
-    double s = 0;
-    for (int d = 0; d < 3; d++)
-        s += (hi[d] - lo[d]) * (hi[d] - lo[d]);
-    return s;
+    double s = 0, m = 0;
+    for (int k = 0; k < 3; k++) {
+        s += (hi[k] - lo[k]) * (hi[k] - lo[k]);
+        m = fmax(m, hi[k] - lo[k]);
+    }
+    *d2 = s;
+    *d = 0;
+    if (m > 0 && isfinite(m)) {
+        double r = 0;
+        for (int k = 0; k < 3; k++)
+            r += ((hi[k] - lo[k]) / m) * ((hi[k] - lo[k]) / m);
+        *d = m * sqrt(r);
+    } else if (m > 0)
+        *d = INFINITY;
 }
 
 /* Keeps the non-degenerate triangles and the vertices they reference,
@@ -90,7 +121,14 @@ static phks_status compact(phks_mesh *m, const double *xyz, size_t vertex_count,
                            const uint32_t *triangles, size_t triangle_count,
                            const uint32_t *origin)
 {
-    double min_area = DEGENERATE_AREA * bbox_diagonal_squared(xyz, vertex_count);
+    double diag, diag2;
+    bbox_diagonal(xyz, vertex_count, &diag, &diag2);
+    if (!isfinite(diag))
+        return phks_fail(PHKS_ERROR_TOO_LARGE,
+                         "the coordinates span more than a double can hold");
+    /* Where diag2 overflows or underflows, the same test on a / diag. */
+    bool scaled = !(isfinite(diag2) && diag2 >= DBL_MIN) && diag > 0;
+    double min_area = DEGENERATE_AREA * diag2;
     uint32_t *new_index = phks_malloc_array(vertex_count, sizeof *new_index);
     m->triangles = phks_malloc_array(triangle_count, 3 * sizeof(uint32_t));
     if (!new_index || !m->triangles) {
@@ -107,7 +145,7 @@ static phks_status compact(phks_mesh *m, const double *xyz, size_t vertex_count,
         if (c[0] == c[1] || c[1] == c[2] || c[0] == c[2])
             continue;
         double a = phks_triangle_area(xyz + 3 * c[0], xyz + 3 * c[1], xyz + 3 * c[2]);
-        if (!(a > min_area))
+        if (scaled ? !(a / diag > DEGENERATE_AREA * diag) : !(a > min_area))
             continue;
         area += a;
         memcpy(m->triangles + 3 * kept, c, 3 * sizeof *c);
@@ -121,6 +159,12 @@ static phks_status compact(phks_mesh *m, const double *xyz, size_t vertex_count,
                          "all %zu triangles are degenerate (zero area or a "
                          "repeated vertex)",
                          triangle_count);
+    }
+    if (!isfinite(area)) {
+        phks_free(new_index);
+        return phks_fail(PHKS_ERROR_TOO_LARGE,
+                         "the total area is beyond the range of a double: "
+                         "the coordinates are too large");
     }
 
     size_t n = 0;

@@ -187,6 +187,12 @@ static phks_status inflate_all(z_stream *z, const unsigned char *in,
         used = (size_t)(z->next_in - in);
         len = (size_t)((char *)z->next_out - buf);
         bool stuck = used == used_before && len == len_before;
+        if (len > PHKS_GZIP_LIMIT) { /* the byte past the limit, even if last */
+            st = phks_fail(PHKS_ERROR_TOO_LARGE,
+                           "gzip data inflates to more than %zu bytes",
+                           (size_t)PHKS_GZIP_LIMIT);
+            break;
+        }
         if (ret == Z_STREAM_END) {
             /* Concatenated members inflate to the concatenation, as with
              * gunzip; other trailing bytes (padding) are ignored. */

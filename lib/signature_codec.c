@@ -18,6 +18,7 @@
 #include "internal.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 #define FORMAT 2
@@ -138,9 +139,13 @@ phks_status phks_signature_encode(const phks_signature *sig, void *buffer,
 static phks_status check_numbers(const phks_signature *sig)
 {
     phks_options check;
-    if (phks_options_resolve(&sig->options, &check) != PHKS_OK)
+    if (phks_options_resolve(&sig->options, &check) != PHKS_OK) {
+        /* A copy: the message buffer cannot be printed into itself. */
+        char why[256];
+        snprintf(why, sizeof why, "%s", phks_last_error_message());
         return phks_fail(PHKS_ERROR_CORRUPT, "signature blob: bad options (%s)",
-                         phks_last_error_message());
+                         why);
+    }
     for (size_t i = 0; i < sig->count; i++) {
         bool ok = !isnan(sig->persistence[i]) && sig->persistence[i] >= 0;
         for (int d = 0; d < 3; d++)
