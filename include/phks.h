@@ -89,8 +89,8 @@ typedef enum phks_status {
     PHKS_ERROR_NO_TRIANGLES = 9,      /* nothing to triangulate              */
     PHKS_ERROR_ZERO_AREA = 10,        /* all triangles degenerate, or a mesh
                                          with no extent (a point, a line)    */
-    PHKS_ERROR_TOO_LARGE = 11,        /* counts beyond limits or beyond what
-                                         the data could hold                 */
+    PHKS_ERROR_TOO_LARGE = 11,        /* counts, extent or area beyond limits,
+                                         or counts the data could not hold   */
     PHKS_ERROR_CANCELLED = 12,        /* the progress callback asked to stop */
     PHKS_ERROR_NO_CONVERGENCE = 13,   /* the eigen-solver did not converge   */
     PHKS_ERROR_INCOMPATIBLE = 14,     /* signatures made with other options  */
@@ -370,7 +370,7 @@ PHKS_API double phks_mesh_area(const phks_mesh *mesh);
  * (random walk: divided by (1 - h lambda) sum_p A_p W(w,p)), which gives
  * back phi(p) at a sample. Time and memory grow linearly with the vertex
  * count: no eigenvector is ever held for every vertex (1.6M vertices:
- * about 20 s and 0.6 GB for a signature on two cores). Such a spectrum's
+ * 20-30 s and 0.6 GB for a signature on two cores). Such a spectrum's
  * eigenvectors and mass have one entry per sample
  * (phks_spectrum_sample_count and phks_spectrum_sample_vertices say
  * which); phks_spectrum_hks gives every vertex's HKS through the

@@ -837,10 +837,20 @@ phks_status phks_db_list(phks_db *db, int64_t after_id, int64_t *ids,
         sqlite3_bind_int64(stmt, 1, after_id);
         sqlite3_bind_int64(stmt, 2,
                            capacity > INT64_MAX ? INT64_MAX : (int64_t)capacity);
-        int rc;
-        while (n < capacity && (rc = sqlite3_step(stmt)) == SQLITE_ROW)
-            ids[n++] = sqlite3_column_int64(stmt, 0);
-        if (n < capacity && rc != SQLITE_DONE)
+        int rc = SQLITE_DONE;
+        /* A damaged b-tree can return rowids out of order; a caller
+         * paging from the last id would then loop for ever. */
+        while (st == PHKS_OK && n < capacity &&
+               (rc = sqlite3_step(stmt)) == SQLITE_ROW) {
+            int64_t id = sqlite3_column_int64(stmt, 0);
+            if (id <= (n ? ids[n - 1] : after_id))
+                st = phks_fail(PHKS_ERROR_CORRUPT,
+                               "phks_db_list: ids out of order, the file is "
+                               "damaged");
+            else
+                ids[n++] = id;
+        }
+        if (st == PHKS_OK && n < capacity && rc != SQLITE_DONE)
             st = sql_fail(db, rc, "phks_db_list");
         sqlite3_finalize(stmt);
     }
