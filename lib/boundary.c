@@ -7,6 +7,7 @@
 #include "internal.h"
 
 #include <math.h>
+#include <stdlib.h>
 
 /* Positions of the vertices on boundary edges, each once, scaled. */
 static phks_status boundary_points(const phks_mesh *mesh, double scale,
@@ -35,8 +36,29 @@ static phks_status boundary_points(const phks_mesh *mesh, double scale,
     return PHKS_OK;
 }
 
-/* Distance from q to the nearest point of the grid, or cap if none is
- * nearer (the grid's cells are at least cap wide). */
+/* Squared distance from q to the nearest point in the cell (x, y, z),
+ * folded into best; cells outside the grid hold nothing. */
+static double nearest_in_cell(const phks_grid *g, const double *points,
+                              const double *q, long x, long y, long z,
+                              double best)
+{
+    if (x < 0 || y < 0 || z < 0 || x >= (long)g->dims[0] ||
+        y >= (long)g->dims[1] || z >= (long)g->dims[2])
+        return best;
+    size_t cell = ((size_t)z * g->dims[1] + (size_t)y) * g->dims[0] + (size_t)x;
+    for (size_t k = g->cell_start[cell]; k < g->cell_start[cell + 1]; k++) {
+        const double *p = points + 3 * (size_t)g->points[k];
+        double dx = p[0] - q[0], dy = p[1] - q[1], dz = p[2] - q[2];
+        best = fmin(best, dx * dx + dy * dy + dz * dz);
+    }
+    return best;
+}
+
+/* Distance from q to the nearest grid point, or cap if none is nearer.
+ * Shells of cells at growing Chebyshev distance r are searched until the
+ * best distance found is below r cells (nothing farther out can beat it)
+ * or the shell lies beyond cap, so the cost follows the distance found,
+ * not cap. */
 static double nearest_within(const phks_grid *g, const double *points,
                              const double *q, double cap)
 {
@@ -44,21 +66,19 @@ static double nearest_within(const phks_grid *g, const double *points,
     for (int d = 0; d < 3; d++)
         c[d] = (long)floor((q[d] - g->origin[d]) / g->cell);
     double best = cap * cap;
-    for (long z = c[2] - 1; z <= c[2] + 1; z++)
-        for (long y = c[1] - 1; y <= c[1] + 1; y++)
-            for (long x = c[0] - 1; x <= c[0] + 1; x++) {
-                if (x < 0 || y < 0 || z < 0 || x >= (long)g->dims[0] ||
-                    y >= (long)g->dims[1] || z >= (long)g->dims[2])
-                    continue;
-                size_t cell = ((size_t)z * g->dims[1] + (size_t)y) * g->dims[0] +
-                              (size_t)x;
-                for (size_t k = g->cell_start[cell]; k < g->cell_start[cell + 1];
-                     k++) {
-                    const double *p = points + 3 * (size_t)g->points[k];
-                    double dx = p[0] - q[0], dy = p[1] - q[1], dz = p[2] - q[2];
-                    best = fmin(best, dx * dx + dy * dy + dz * dz);
+    for (long r = 0;; r++) {
+        for (long z = c[2] - r; z <= c[2] + r; z++)
+            for (long y = c[1] - r; y <= c[1] + r; y++)
+                for (long x = c[0] - r; x <= c[0] + r; x++) {
+                    bool shell = labs(z - c[2]) == r || labs(y - c[1]) == r ||
+                                 labs(x - c[0]) == r;
+                    if (shell)
+                        best = nearest_in_cell(g, points, q, x, y, z, best);
                 }
-            }
+        double reach = (double)r * g->cell;
+        if (reach * reach >= best)
+            break;
+    }
     return sqrt(best);
 }
 
@@ -75,10 +95,10 @@ phks_status phks_boundary_distance(const phks_mesh *mesh, double scale,
     phks_status st = boundary_points(mesh, scale, &points, &found);
     if (st != PHKS_OK)
         return st;
-    /* The grid may coarsen its cells; they never get smaller than cap, so
-     * the 27 cells around a point hold every point within cap of it. */
+    /* Cells a sixteenth of cap keep the shells near a vertex small; the
+     * grid coarsens them where the boundary is sparse. */
     phks_grid grid = {0};
-    st = phks_grid_build(points, found, 1, cap, &grid);
+    st = phks_grid_build(points, found, 1, cap / 16, &grid);
     for (size_t v = 0; st == PHKS_OK && v < n; v++) {
         double q[3];
         for (int d = 0; d < 3; d++)

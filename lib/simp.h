@@ -28,12 +28,13 @@ bool phks_simplify_applies(const phks_options *opt, size_t n);
 typedef struct phks_samples {
     size_t count;
     uint32_t *vertex;    /* count mesh vertices, ascending                 */
-    double *area;        /* count: the area of the vertices nearest to each
-                            sample (unit-box units; sums to the mesh's)     */
+    double *area;        /* count: the area each sample stands for (unit-
+                            box units; sums to the mesh's): its Voronoi
+                            area, adjusted to the mesh's kernel density */
     uint32_t *of_vertex; /* n: the sample nearest to each mesh vertex      */
     double *gain;        /* count: the kernel gain g_p of each sample (the
                             operator's K_pq is multiplied by
-                            sqrt(g_p g_q))                               */
+                            sqrt(g_p g_q))                                  */
 } phks_samples;
 
 /* Chooses about opt->simplify_target samples of mesh (positions scaled by
@@ -57,8 +58,9 @@ phks_status phks_heat_diagonal(const double *xyz, const double *area,
 /* ---- the operator of a weighted point set (point_operator.c) */
 /* The matrix phks_operator_build makes for a mesh, for points at xyz
  * (3 per point, multiplied by scale) with masses area[] in place of the
- * vertex areas. Progress in PHKS_STAGE_OPERATOR from done to done + span
- * (the final report, at done + span, included). */
+ * vertex areas, and K_pq multiplied by sqrt(gain_p gain_q) when gain is
+ * not NULL. Progress in PHKS_STAGE_OPERATOR from done to done + span (the
+ * final report, at done + span, included). */
 phks_status phks_point_operator_build(const double *xyz, size_t n,
                                       double scale, const double *area,
                                       const double *gain,
