@@ -146,6 +146,16 @@ typedef struct phks_operator_matrix {
 phks_status phks_operator_build(const phks_mesh *mesh, const phks_options *opt,
                                 phks_operator_matrix *op);
 void phks_operator_release(phks_operator_matrix *op);
+/* The matrix phks_operator_build makes for a mesh, for points at xyz
+ * (3 per point, multiplied by scale) with masses area[] in place of the
+ * vertex areas, and K_pq multiplied by sqrt(gain_p gain_q) when gain is
+ * not NULL. Progress in PHKS_STAGE_OPERATOR from done to done + span (the
+ * final report, at done + span, included). */
+phks_status phks_point_operator_build(const double *xyz, size_t n,
+                                      double scale, const double *area,
+                                      const double *gain,
+                                      const phks_options *opt, double done,
+                                      double span, phks_operator_matrix *op);
 /* Y = B X for a block of k vectors stored row-major (X[i*k + j] is entry i
  * of vector j), using `threads` workers. */
 void phks_operator_apply(const phks_operator_matrix *op, const double *x,
@@ -212,6 +222,15 @@ typedef void (*phks_range_fn)(void *ctx, size_t begin, size_t end);
 void phks_parallel_for(size_t n, unsigned threads, phks_range_fn fn, void *ctx);
 /* threads option resolved: 0 means the number of online CPUs. */
 unsigned phks_thread_count(const phks_options *opt);
+/* Runs fn(ctx, begin, end) over [0, n) in `batches` consecutive batches,
+ * each split over `threads` workers by phks_parallel_for (so the outputs
+ * never depend on the thread count when fn writes disjoint entries), and
+ * reports progress in `stage` from done to done + span before each batch:
+ * a cancellation is noticed within one batch. opt may be NULL. */
+phks_status phks_run_batched(size_t n, unsigned threads, phks_range_fn fn,
+                             void *ctx, const phks_options *opt,
+                             phks_stage stage, double done, double span,
+                             size_t batches);
 
 /* ---- deterministic start vectors (random.c) */
 /* Fills v with n numbers in [-0.5, 0.5) from a fixed generator started at

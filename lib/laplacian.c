@@ -10,6 +10,10 @@
  * Mh = A for the paper's operator; Mh = A D for the random-walk one, with
  * D_w = (1 / 4 pi h) sum_k A_k W(w,k) (k = w included) as in appendix B.
  * B is symmetric positive semi-definite, so solvers need no factorisation.
+ *
+ * The same matrix serves any weighted point set (HKS-simp's samples, whose
+ * masses are the areas they stand for): a mesh is its vertices with their
+ * areas.
  */
 #include "internal.h"
 
@@ -33,7 +37,7 @@ typedef struct {
     bool fill;
 } build_ctx;
 
-/* Visits the neighbours of vertex w within the radius: counts them (first
+/* Visits the neighbours of point w within the radius: counts them (first
  * pass) or stores them (second pass), and sums the kernel density. */
 static void scan_row(const build_ctx *b, size_t w)
 {
@@ -75,46 +79,15 @@ static void scan_row(const build_ctx *b, size_t w)
         b->row_start[w + 1] = count;
 }
 
-typedef struct {
-    const build_ctx *b;
-    size_t first;
-} batch_ctx;
-
-static void scan_batch(void *ctx, size_t begin, size_t end)
+static void scan_rows(void *ctx, size_t begin, size_t end)
 {
-    const batch_ctx *batch = ctx;
     for (size_t w = begin; w < end; w++)
-        scan_row(batch->b, batch->first + w);
-}
-
-/* One pass over all rows in batches, reporting progress between batches. */
-static phks_status scan_all(const build_ctx *b, size_t n, unsigned threads,
-                            const phks_options *opt, double done, double span)
-{
-    for (size_t k = 0; k < ROW_BATCHES; k++) {
-        size_t lo = n * k / ROW_BATCHES, hi = n * (k + 1) / ROW_BATCHES;
-        phks_status st = phks_progress(opt, PHKS_STAGE_OPERATOR,
-                                       done + span * (double)k / ROW_BATCHES);
-        if (st != PHKS_OK)
-            return st;
-        batch_ctx batch = {b, lo};
-        phks_parallel_for(hi - lo, threads, scan_batch, &batch);
-    }
-    return PHKS_OK;
-}
-
-void phks_operator_release(phks_operator_matrix *op)
-{
-    phks_free(op->row_start);
-    phks_free(op->col);
-    phks_free(op->val);
-    phks_free(op->mass);
-    memset(op, 0, sizeof *op);
+        scan_row(ctx, w);
 }
 
 /* Turns the stored A_p W(w,p) into entries of B (see the top comment). */
 static void finish_values(phks_operator_matrix *op, const double *area,
-                          double c)
+                          const double *gain, double c)
 {
     double bound = 0;
     for (size_t w = 0; w < op->n; w++) {
@@ -127,6 +100,8 @@ static void finish_values(phks_operator_matrix *op, const double *area,
                 continue;
             }
             double k = area[w] * op->val[i]; /* K_wp = A_w A_p W */
+            if (gain)
+                k *= sqrt(gain[w] * gain[p]);
             diag += k;
             op->val[i] = -c * k / sqrt(op->mass[w] * op->mass[p]);
             off += fabs(op->val[i]);
@@ -137,35 +112,33 @@ static void finish_values(phks_operator_matrix *op, const double *area,
     op->norm_bound = bound;
 }
 
-phks_status phks_operator_build(const phks_mesh *mesh, const phks_options *opt,
-                                phks_operator_matrix *op)
+phks_status phks_point_operator_build(const double *xyz, size_t n,
+                                      double scale, const double *area,
+                                      const double *gain,
+                                      const phks_options *opt, double done,
+                                      double span, phks_operator_matrix *op)
 {
     memset(op, 0, sizeof *op);
-    size_t n = mesh->vertex_count;
-    double scale, h = opt->tau;
-    phks_status st = phks_unit_box_scale(mesh, (phks_box)opt->box, &scale);
-    if (st != PHKS_OK)
-        return st;
-    double radius = opt->cutoff * sqrt(4 * h);
-    double *area = phks_malloc_array(n, sizeof *area);
+    double h = opt->tau, radius = opt->cutoff * sqrt(4 * h);
     double *density = phks_malloc_array(n, sizeof *density);
     phks_grid grid = {0};
+    phks_status st = PHKS_OK;
     op->n = n;
     op->row_start = phks_calloc(n + 1, sizeof *op->row_start);
     op->mass = phks_malloc_array(n, sizeof *op->mass);
-    if (!area || !density || !op->row_start || !op->mass) {
+    if (!density || !op->row_start || !op->mass) {
         st = phks_fail_oom("operator");
         goto done;
     }
-    phks_vertex_areas(mesh, scale, area);
-    st = phks_grid_build(mesh->xyz, n, scale, radius, &grid);
+    st = phks_grid_build(xyz, n, scale, radius, &grid);
     if (st != PHKS_OK)
         goto done;
 
-    build_ctx b = {&grid, mesh->xyz, scale, radius * radius, 1 / (4 * h), area,
+    build_ctx b = {&grid, xyz, scale, radius * radius, 1 / (4 * h), area,
                    op->row_start, NULL, NULL, density, false};
     unsigned threads = phks_thread_count(opt);
-    st = scan_all(&b, n, threads, opt, 0, 0.3);
+    st = phks_run_batched(n, threads, scan_rows, &b, opt, PHKS_STAGE_OPERATOR,
+                          done, 0.3 * span, ROW_BATCHES);
     if (st != PHKS_OK)
         goto done;
     for (size_t w = 0; w < n; w++)
@@ -180,7 +153,8 @@ phks_status phks_operator_build(const phks_mesh *mesh, const phks_options *opt,
     b.col = op->col;
     b.val = op->val;
     b.fill = true;
-    st = scan_all(&b, n, threads, opt, 0.3, 0.7);
+    st = phks_run_batched(n, threads, scan_rows, &b, opt, PHKS_STAGE_OPERATOR,
+                          done + 0.3 * span, 0.7 * span, ROW_BATCHES);
     if (st != PHKS_OK)
         goto done;
 
@@ -188,15 +162,41 @@ phks_status phks_operator_build(const phks_mesh *mesh, const phks_options *opt,
         op->mass[w] = opt->operator_kind == PHKS_OPERATOR_RANDOM_WALK
                           ? area[w] * density[w] / (4 * PHKS_PI * h)
                           : area[w];
-    finish_values(op, area, 1 / (4 * PHKS_PI * h * h));
-    st = phks_progress(opt, PHKS_STAGE_OPERATOR, 1);
+    finish_values(op, area, gain, 1 / (4 * PHKS_PI * h * h));
+    st = phks_progress(opt, PHKS_STAGE_OPERATOR, done + span);
 done:
     phks_grid_release(&grid);
-    phks_free(area);
     phks_free(density);
     if (st != PHKS_OK)
         phks_operator_release(op);
     return st;
+}
+
+phks_status phks_operator_build(const phks_mesh *mesh, const phks_options *opt,
+                                phks_operator_matrix *op)
+{
+    memset(op, 0, sizeof *op);
+    size_t n = mesh->vertex_count;
+    double scale;
+    phks_status st = phks_unit_box_scale(mesh, (phks_box)opt->box, &scale);
+    if (st != PHKS_OK)
+        return st;
+    double *area = phks_malloc_array(n, sizeof *area);
+    if (!area)
+        return phks_fail_oom("operator");
+    phks_vertex_areas(mesh, scale, area);
+    st = phks_point_operator_build(mesh->xyz, n, scale, area, NULL, opt, 0, 1, op);
+    phks_free(area);
+    return st;
+}
+
+void phks_operator_release(phks_operator_matrix *op)
+{
+    phks_free(op->row_start);
+    phks_free(op->col);
+    phks_free(op->val);
+    phks_free(op->mass);
+    memset(op, 0, sizeof *op);
 }
 
 typedef struct {

@@ -61,3 +61,34 @@ void phks_parallel_for(size_t n, unsigned threads, phks_range_fn fn, void *ctx)
             run_chunk(&chunks[t]);
     }
 }
+
+typedef struct {
+    phks_range_fn fn;
+    void *ctx;
+    size_t first;
+} offset_ctx;
+
+static void run_offset(void *ctx, size_t begin, size_t end)
+{
+    const offset_ctx *o = ctx;
+    o->fn(o->ctx, o->first + begin, o->first + end);
+}
+
+phks_status phks_run_batched(size_t n, unsigned threads, phks_range_fn fn,
+                             void *ctx, const phks_options *opt,
+                             phks_stage stage, double done, double span,
+                             size_t batches)
+{
+    for (size_t b = 0; b < batches; b++) {
+        if (opt) {
+            phks_status st = phks_progress(opt, stage,
+                                           done + span * (double)b / (double)batches);
+            if (st != PHKS_OK)
+                return st;
+        }
+        size_t lo = n * b / batches, hi = n * (b + 1) / batches;
+        offset_ctx o = {fn, ctx, lo};
+        phks_parallel_for(hi - lo, threads, run_offset, &o);
+    }
+    return PHKS_OK;
+}

@@ -1,8 +1,9 @@
 /*
  * simp.h - HKS-simp, the path for large meshes (paper section 4.1 and
  * appendix B, NOTES.md section 6): declarations shared by simplify.c (the
- * samples), point_operator.c (their operator), extend.c (back to every
- * vertex) and spectrum.c, which strings them together:
+ * samples), extend.c (back to every
+ * vertex) and spectrum.c, which strings them together with the operator
+ * of laplacian.c:
  *
  *   mesh (n vertices) --simplify--> about simplify_target samples, each a
  *   mesh vertex carrying the area of the vertices nearest to it
@@ -55,18 +56,6 @@ phks_status phks_heat_diagonal(const double *xyz, const double *area,
                                const phks_options *opt, double done,
                                double span, double *out);
 
-/* ---- the operator of a weighted point set (point_operator.c) */
-/* The matrix phks_operator_build makes for a mesh, for points at xyz
- * (3 per point, multiplied by scale) with masses area[] in place of the
- * vertex areas, and K_pq multiplied by sqrt(gain_p gain_q) when gain is
- * not NULL. Progress in PHKS_STAGE_OPERATOR from done to done + span (the
- * final report, at done + span, included). */
-phks_status phks_point_operator_build(const double *xyz, size_t n,
-                                      double scale, const double *area,
-                                      const double *gain,
-                                      const phks_options *opt, double done,
-                                      double span, phks_operator_matrix *op);
-
 /* ---- extension to every vertex (extend.c) */
 struct phks_extension {
     size_t m;             /* samples                                        */
@@ -102,16 +91,6 @@ phks_status phks_extend_hks(const phks_spectrum *spec, double t,
                             double *out);
 
 /* ---- shared helpers (simplify.c) */
-/* Runs fn(ctx, begin, end) over [0, n) in `batches` consecutive batches,
- * each split over `threads` workers by phks_parallel_for (so the outputs
- * never depend on the thread count when fn writes disjoint entries), and
- * reports progress in `stage` from done to done + span before each batch:
- * a cancellation is noticed within one batch. opt may be NULL. */
-phks_status phks_run_batched(size_t n, unsigned threads, phks_range_fn fn,
-                             void *ctx, const phks_options *opt,
-                             phks_stage stage, double done, double span,
-                             size_t batches);
-
 /* e[j] = exp(-d2_j / 4h) (inv4h = 1 / 4h) where the squared distance d2_j
  * from p to point j (x[j], y[j], z[j]) is below r2, else 0; d2 receives the
  * d2_j. Vectorised (AVX2 where the CPU has it, the same bits
