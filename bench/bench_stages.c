@@ -5,12 +5,21 @@
  *
  *   bench-stages [--solver auto|lanczos|arpack|dense] [--cutoff C]
  *                [--simplify-above N] [--simplify-target N]
- *                [--decimate N] MESH...
+ *                [--decimate N] [--trace S] [--cancel-at T1,T2,...] MESH...
  *
  * Each mesh runs in its own child process so that the peak resident
  * memory it reports (getrusage at its end) is its own. "gap" is the
- * longest time between two progress reports: how long a cancellation
- * may wait.
+ * longest time between two progress reports (the call and the return
+ * count as reports, so a silent start or end shows): how long a cancellation
+ * may wait. --trace S also lists every gap longer than S seconds with the
+ * reports around it (stage and fraction), to find the silent code.
+ *
+ * --cancel-at T1,T2,... measures cancellation instead: for each T, a
+ * child runs the signature again and asks to cancel T seconds after the
+ * call began (the callback returns non-zero from its first report at or
+ * after T), and prints the stage that honoured it and the latency from
+ * the request to the return of phks_signature_compute. The worst latency
+ * over all T is the longest gap plus the time to free everything.
  *
  * --decimate N first reduces each mesh to about N vertices by quadric
  * decimation (meshoptimizer's meshopt_simplify; only when the benchmark
@@ -42,11 +51,43 @@ static double now(void)
     return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
 }
 
+#define MAX_TRACE 64
+
+/* One silent stretch: from a report (stage, fraction) to the next. */
+typedef struct {
+    double seconds;
+    int from_stage, to_stage; /* -1: the call, -2: the return */
+    double from_fraction, to_fraction;
+} silence;
+
 typedef struct {
     double start[PHKS_STAGE_COUNT], end[PHKS_STAGE_COUNT];
     double last, gap; /* the longest time between two reports: how long a
                          cancellation can wait */
+    int last_stage;
+    double last_fraction;
+    double trace;     /* record silences longer than this (0: none)     */
+    silence silences[MAX_TRACE];
+    int silence_count;
+    double cancel_at; /* cancel from the first report at or after this
+                         time (0: never)                                 */
+    int cancelled_in; /* stage that returned non-zero, or -1            */
 } stage_times;
+
+static void note_gap(stage_times *t, double x, int stage, double fraction)
+{
+    if (t->last > 0) {
+        double g = x - t->last;
+        if (g > t->gap)
+            t->gap = g;
+        if (t->trace > 0 && g > t->trace && t->silence_count < MAX_TRACE)
+            t->silences[t->silence_count++] =
+                (silence){g, t->last_stage, stage, t->last_fraction, fraction};
+    }
+    t->last = x;
+    t->last_stage = stage;
+    t->last_fraction = fraction;
+}
 
 static int on_progress(void *user, phks_stage stage, double fraction)
 {
@@ -55,11 +96,20 @@ static int on_progress(void *user, phks_stage stage, double fraction)
     if (t->start[stage] == 0)
         t->start[stage] = x;
     t->end[stage] = x;
-    if (t->last > 0 && x - t->last > t->gap)
-        t->gap = x - t->last;
-    t->last = x;
-    (void)fraction;
+    note_gap(t, x, (int)stage, fraction);
+    if (t->cancel_at > 0 && x >= t->cancel_at) {
+        t->cancelled_in = (int)stage;
+        return 1;
+    }
     return 0;
+}
+
+static const char *stage_name(int stage)
+{
+    static const char *const names[] = {"operator", "eigen", "hks", "persist"};
+    return stage >= 0 && stage < PHKS_STAGE_COUNT ? names[stage]
+           : stage == -1                          ? "call"
+                                                  : "return";
 }
 
 /* The quadric decimation of mesh to about `target` vertices (NULL when
@@ -119,11 +169,17 @@ static double peak_mb(void)
     return (double)use.ru_maxrss / 1024;
 }
 
-/* Child: prints one table row and exits. */
-static int run(const char *path, const phks_options *base, size_t decimate_to)
+/* Child: prints one table row (or, with cancel_after > 0, one line on
+ * the cancellation) and exits. */
+static int run(const char *path, const phks_options *base, size_t decimate_to,
+               double trace, double cancel_after)
 {
     phks_options opt = *base;
-    stage_times t = {{0}, {0}, 0, 0};
+    stage_times t;
+    memset(&t, 0, sizeof t);
+    t.last_stage = -1;
+    t.trace = trace;
+    t.cancelled_in = -1;
     opt.progress = on_progress;
     opt.progress_user = &t;
     double t0 = now();
@@ -143,15 +199,33 @@ static int run(const char *path, const phks_options *base, size_t decimate_to)
         clean_peak = reset_peak();
         t1 = now();
     }
+    const char *name = strrchr(path, '/') ? strrchr(path, '/') + 1 : path;
     phks_signature *sig = NULL;
-    if (st == PHKS_OK)
+    if (st == PHKS_OK) {
+        if (cancel_after > 0)
+            t.cancel_at = now() + cancel_after;
+        t1 = t.last = now();
         st = phks_signature_compute(mesh, &opt, &sig);
+    }
     double t2 = now();
+    if (cancel_after > 0) {
+        if (st == PHKS_ERROR_CANCELLED)
+            printf("%-28s %8zu %9.2f %9s %9.3f\n", name,
+                   phks_mesh_vertex_count(mesh), cancel_after,
+                   stage_name(t.cancelled_in), t2 - t.cancel_at);
+        else
+            printf("%-28s %8zu %9.2f %9s (done after %.2f s: %s)\n", name,
+                   phks_mesh_vertex_count(mesh), cancel_after, "-", t2 - t1,
+                   phks_status_string(st));
+        phks_signature_free(sig);
+        phks_mesh_free(mesh);
+        return st == PHKS_ERROR_CANCELLED || st == PHKS_OK ? 0 : 1;
+    }
     if (st != PHKS_OK) {
         printf("%-34s error: %s\n", path, phks_last_error_message());
         return 1;
     }
-    const char *name = strrchr(path, '/') ? strrchr(path, '/') + 1 : path;
+    note_gap(&t, t2, -2, 1);
     printf("%-28s %8zu %7.2f", name, phks_mesh_vertex_count(mesh), load);
     /* A stage lasts from its first report to the next stage's first. */
     for (int s = 0; s < PHKS_STAGE_COUNT; s++) {
@@ -160,6 +234,12 @@ static int run(const char *path, const phks_options *base, size_t decimate_to)
     }
     printf(" %8.3f %6.2f %8.0f%s\n", t2 - t1, t.gap, peak_mb(),
            clean_peak ? "" : "*");
+    for (int i = 0; i < t.silence_count; i++) {
+        const silence *g = &t.silences[i];
+        printf("    silent %6.2f s from %s %.4f to %s %.4f\n", g->seconds,
+               stage_name(g->from_stage), g->from_fraction,
+               stage_name(g->to_stage), g->to_fraction);
+    }
     fflush(stdout);
     phks_signature_free(sig);
     phks_mesh_free(mesh);
@@ -172,6 +252,8 @@ int main(int argc, char **argv)
     phks_options_init(&opt);
     int first = 1;
     size_t decimate_to = 0;
+    double trace = 0;
+    const char *cancel_list = NULL;
     for (; first + 1 < argc && argv[first][0] == '-'; first += 2) {
         const char *v = argv[first + 1];
         if (strcmp(argv[first], "--solver") == 0)
@@ -187,32 +269,58 @@ int main(int argc, char **argv)
             opt.simplify_target = (uint32_t)strtoul(v, NULL, 10);
         else if (strcmp(argv[first], "--decimate") == 0)
             decimate_to = (size_t)strtoul(v, NULL, 10);
+        else if (strcmp(argv[first], "--trace") == 0)
+            trace = atof(v);
+        else if (strcmp(argv[first], "--cancel-at") == 0)
+            cancel_list = v;
     }
     if (first >= argc) {
         fprintf(stderr, "usage: bench-stages [--solver S] [--cutoff C] "
                         "[--simplify-above N] [--simplify-target N] "
-                        "[--decimate N] MESH...\n");
+                        "[--decimate N] [--trace S] [--cancel-at T1,T2,...] "
+                        "MESH...\n");
         return 2;
     }
     printf("libphks %s, cutoff %.2f, HKS-simp above %u vertices (target %u), "
            "times in seconds\n",
            phks_version_string(), opt.cutoff, opt.simplify_above,
            opt.simplify_target);
-    printf("%-28s %8s %7s %8s %8s %8s %8s %8s %6s %8s\n", "mesh", "vertices",
-           "load", "operator", "eigen", "hks", "persist", "total", "gap",
-           "peak MB");
-    int failures = 0;
-    for (int i = first; i < argc; i++) {
-        fflush(stdout);
-        pid_t pid = fork();
-        if (pid == 0)
-            _exit(run(argv[i], &opt, decimate_to));
-        int status = 0;
-        if (pid < 0 || waitpid(pid, &status, 0) < 0) {
-            perror("bench-stages");
-            return 1;
+    /* The cancellation times, or one 0 (no cancellation). */
+    double cancel_at[64] = {0};
+    int cancel_count = 1;
+    if (cancel_list) {
+        cancel_count = 0;
+        for (const char *c = cancel_list; *c && cancel_count < 64;) {
+            char *end;
+            double x = strtod(c, &end);
+            if (end == c || !(x > 0)) {
+                fprintf(stderr, "bench-stages: --cancel-at wants positive "
+                                "seconds separated by commas\n");
+                return 2;
+            }
+            cancel_at[cancel_count++] = x;
+            c = *end == ',' ? end + 1 : end;
         }
-        failures += !WIFEXITED(status) || WEXITSTATUS(status) != 0;
+        printf("%-28s %8s %9s %9s %9s\n", "mesh", "vertices", "cancel at",
+               "stage", "latency");
+    } else {
+        printf("%-28s %8s %7s %8s %8s %8s %8s %8s %6s %8s\n", "mesh",
+               "vertices", "load", "operator", "eigen", "hks", "persist",
+               "total", "gap", "peak MB");
     }
+    int failures = 0;
+    for (int i = first; i < argc; i++)
+        for (int c = 0; c < cancel_count; c++) {
+            fflush(stdout);
+            pid_t pid = fork();
+            if (pid == 0)
+                _exit(run(argv[i], &opt, decimate_to, trace, cancel_at[c]));
+            int status = 0;
+            if (pid < 0 || waitpid(pid, &status, 0) < 0) {
+                perror("bench-stages");
+                return 1;
+            }
+            failures += !WIFEXITED(status) || WEXITSTATUS(status) != 0;
+        }
     return failures ? 1 : 0;
 }
