@@ -82,8 +82,33 @@ static double nearest_within(const phks_grid *g, const double *points,
     return sqrt(best);
 }
 
+typedef struct {
+    const phks_mesh *mesh;
+    const phks_grid *grid;
+    const double *points;
+    double scale, cap;
+    double *distance;
+} distance_ctx;
+
+static void distance_rows(void *ctx, size_t begin, size_t end)
+{
+    const distance_ctx *c = ctx;
+    for (size_t v = begin; v < end; v++) {
+        double q[3];
+        for (int d = 0; d < 3; d++)
+            q[d] = c->mesh->xyz[3 * v + d] * c->scale;
+        c->distance[v] = nearest_within(c->grid, c->points, q, c->cap);
+    }
+}
+
+/* Vertices per batch between progress reports: a few milliseconds' work
+ * when the boundary is near, more where its reach is wide. */
+#define BATCH 16384
+
 phks_status phks_boundary_distance(const phks_mesh *mesh, double scale,
-                                   double cap, double *distance)
+                                   double cap, const phks_options *opt,
+                                   phks_stage stage, double done, double span,
+                                   double *distance)
 {
     size_t n = mesh->vertex_count;
     for (size_t v = 0; v < n; v++)
@@ -99,11 +124,12 @@ phks_status phks_boundary_distance(const phks_mesh *mesh, double scale,
      * grid coarsens them where the boundary is sparse. */
     phks_grid grid = {0};
     st = phks_grid_build(points, found, 1, cap / 16, &grid);
-    for (size_t v = 0; st == PHKS_OK && v < n; v++) {
-        double q[3];
-        for (int d = 0; d < 3; d++)
-            q[d] = mesh->xyz[3 * v + d] * scale;
-        distance[v] = nearest_within(&grid, points, q, cap);
+    if (st == PHKS_OK) {
+        distance_ctx c = {mesh, &grid, points, scale, cap, distance};
+        /* Each vertex's distance is its own: any split gives the same. */
+        st = phks_run_batched(n, opt ? phks_thread_count(opt) : 1,
+                              distance_rows, &c, opt, stage, done, span,
+                              (n + BATCH - 1) / BATCH);
     }
     phks_grid_release(&grid);
     phks_free(points);

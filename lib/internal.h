@@ -107,6 +107,34 @@ phks_status phks_unit_box_scale(const phks_mesh *mesh, phks_box box,
 /* Per-vertex area: a third of the area of the incident triangles, for
  * positions scaled by `scale`. mass has vertex_count entries. */
 void phks_vertex_areas(const phks_mesh *mesh, double scale, double *mass);
+/* The same with progress in `stage` from done to done + span through opt
+ * (NULL: none), every 2^18 triangles or vertices (a tenth of a second for
+ * a million vertices takes a few reports); they return
+ * PHKS_ERROR_CANCELLED when the callback asks. The numbers are the
+ * same. */
+phks_status phks_unit_box_scale_progress(const phks_mesh *mesh, phks_box box,
+                                         const phks_options *opt,
+                                         phks_stage stage, double done,
+                                         double span, double *scale);
+phks_status phks_vertex_areas_progress(const phks_mesh *mesh, double scale,
+                                       const phks_options *opt,
+                                       phks_stage stage, double done,
+                                       double span, double *mass);
+
+/* ---- persistence (persistence.c) */
+/* phks_persistent_maxima with progress: reports PHKS_STAGE_PERSISTENCE
+ * fractions from done to done + span through opt (NULL: none) at the
+ * start of each phase and every 65,536 triangles, edges or merges inside
+ * one (dozens of times a second on a million vertices; a count that
+ * depends on the mesh and f alone), and returns PHKS_ERROR_CANCELLED,
+ * everything freed and *count 0, when the callback asks. The results are
+ * those of phks_persistent_maxima, bit for bit. */
+phks_status phks_persistence_run(const phks_mesh *mesh, const double *f,
+                                 size_t max_count, double threshold,
+                                 phks_maximum *out, size_t *count,
+                                 uint32_t *region_of_triangle,
+                                 const phks_options *opt, double done,
+                                 double span);
 
 /* ---- spatial grid (grid.c) */
 typedef struct phks_grid {
@@ -125,9 +153,15 @@ void phks_grid_release(phks_grid *grid);
 /* ---- boundary proximity (boundary.c) */
 /* distance[v] = straight-line distance from vertex v to the nearest vertex
  * on a boundary edge, positions scaled by scale, capped at cap (cap > 0;
- * all cap on a closed mesh). */
+ * all cap on a closed mesh). Runs on phks_thread_count(opt) threads (the
+ * distances do not depend on it) and reports progress in `stage` from
+ * done to done + span through opt (NULL: one thread, no reports) between
+ * batches of vertices; returns PHKS_ERROR_CANCELLED when the callback
+ * asks. */
 phks_status phks_boundary_distance(const phks_mesh *mesh, double scale,
-                                   double cap, double *distance);
+                                   double cap, const phks_options *opt,
+                                   phks_stage stage, double done, double span,
+                                   double *distance);
 
 /* ---- sparse symmetric operator (laplacian.c) */
 /* The symmetric matrix B = Mh^-1/2 S Mh^-1/2 in CSR form (both triangles

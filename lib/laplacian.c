@@ -178,14 +178,18 @@ phks_status phks_operator_build(const phks_mesh *mesh, const phks_options *opt,
     memset(op, 0, sizeof *op);
     size_t n = mesh->vertex_count;
     double scale;
-    phks_status st = phks_unit_box_scale(mesh, (phks_box)opt->box, &scale);
+    phks_status st = phks_unit_box_scale_progress(
+        mesh, (phks_box)opt->box, opt, PHKS_STAGE_OPERATOR, 0, 0, &scale);
     if (st != PHKS_OK)
         return st;
     double *area = phks_malloc_array(n, sizeof *area);
     if (!area)
         return phks_fail_oom("operator");
-    phks_vertex_areas(mesh, scale, area);
-    st = phks_point_operator_build(mesh->xyz, n, scale, area, NULL, opt, 0, 1, op);
+    st = phks_vertex_areas_progress(mesh, scale, opt, PHKS_STAGE_OPERATOR, 0,
+                                    0, area);
+    if (st == PHKS_OK)
+        st = phks_point_operator_build(mesh->xyz, n, scale, area, NULL, opt, 0,
+                                       1, op);
     phks_free(area);
     return st;
 }

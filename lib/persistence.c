@@ -70,7 +70,10 @@
  * operation; the sorts are linear. Memory: 74 bytes per triangle, plus 16
  * per boundary-edge side after the sweep (few for smooth functions, at
  * most 48 per triangle). On a 3.2M-triangle mesh: about 1.4 s for a
- * smooth function, 4-5 s for white noise (many maxima).
+ * smooth function, 4-5 s for white noise (many maxima). So the signature
+ * path (phks_persistence_run) reports progress inside every phase, every
+ * so many steps, and stops at the next report when cancelled; the steps
+ * and the results are the same with or without a callback.
  */
 #include "internal.h"
 
@@ -131,6 +134,10 @@ typedef struct merger {
                                node 4t+k is tri[t].node[k]               */
     region_entry *queue;
     size_t queue_size;
+    /* Progress in PHKS_STAGE_PERSISTENCE from done to done + span (opt
+     * NULL: none); the current phase covers [from, from + width) of it. */
+    const phks_options *opt;
+    double done, span, from, width;
 } merger;
 
 static void merger_release(merger *m)
@@ -144,15 +151,64 @@ static void merger_release(merger *m)
     phks_free(m->nodes);
 }
 
+/* ---- progress: each phase has a share of the stage's span (its share
+ * of the time on a 1.6M-vertex mesh and a smooth f) and reports at its
+ * start and every so many steps inside: 2^16 for the steps that merge or
+ * build heaps (0.1-0.4 us each), 2^18 for plain passes over triangles or
+ * edges (10-30 ns each), so that a cancellation is noticed within tens of
+ * milliseconds whatever the mesh size, at about a hundred reports a
+ * second. The number of reports depends on the mesh and f alone, never
+ * on timing. */
+
+enum { PHASE_RANKS, PHASE_INIT, PHASE_SWEEP, PHASE_HEAPS, PHASE_QUEUE,
+       PHASE_SURVIVORS, PHASE_COUNT };
+static const double phase_start[PHASE_COUNT + 1] = {0,    0.06, 0.28, 0.8,
+                                                    0.92, 0.94, 1};
+
+#define HEAVY 16 /* log2 of the steps between reports */
+#define LIGHT 18
+
+/* Whether a loop at step i is due to report: every 2^shift, not at 0. */
+static int due(size_t i, unsigned shift)
+{
+    return (i & (((size_t)1 << shift) - 1)) == 0 && i > 0;
+}
+
+/* Reports the fraction i / n of the current phase. */
+static phks_status report(const merger *m, size_t i, size_t n)
+{
+    if (!m->opt || !m->opt->progress)
+        return PHKS_OK;
+    double x = m->from + m->width * (n > 0 && i < n ? (double)i / (double)n : 1);
+    return phks_progress(m->opt, PHKS_STAGE_PERSISTENCE, m->done + m->span * x);
+}
+
+/* Starts the part [from, to) (fractions of it) of phase p, with a
+ * report. */
+static phks_status phase(merger *m, int p, double from, double to)
+{
+    double width = phase_start[p + 1] - phase_start[p];
+    m->from = phase_start[p] + from * width;
+    m->width = (to - from) * width;
+    return report(m, 0, 1);
+}
+
 /* ---- sorting and ranks */
 
 /* Stable LSD radix sort on key, 11 bits a pass; returns the sorted copy
- * (a or tmp). */
-static sort_item *radix_sort(sort_item *a, sort_item *tmp, size_t n)
+ * (a or tmp) in *sorted. Reports progress through the current phase
+ * between passes over many items. */
+static phks_status radix_sort(const merger *m, sort_item *a, sort_item *tmp,
+                              size_t n, sort_item **sorted)
 {
     enum { BITS = 11, BUCKETS = 1 << BITS };
     size_t count[BUCKETS];
     for (unsigned shift = 0; shift < 64 && n > 0; shift += BITS) {
+        if (n >= (size_t)1 << LIGHT && shift > 0) {
+            phks_status st = report(m, shift, 64);
+            if (st != PHKS_OK)
+                return st;
+        }
         memset(count, 0, sizeof count);
         for (size_t i = 0; i < n; i++)
             count[(a[i].key >> shift) & (BUCKETS - 1)]++;
@@ -170,7 +226,8 @@ static sort_item *radix_sort(sort_item *a, sort_item *tmp, size_t n)
         a = tmp;
         tmp = s;
     }
-    return a;
+    *sorted = a;
+    return PHKS_OK;
 }
 
 /* A key whose unsigned order is the order of the doubles (-0 as +0). */
@@ -197,9 +254,10 @@ static phks_status rank_values(merger *m, const double *f, size_t n)
     }
     for (size_t v = 0; v < n; v++)
         a[v] = (sort_item){double_key(f[v]), (uint32_t)v};
-    sort_item *s = radix_sort(a, tmp, n);
+    sort_item *s = NULL;
+    phks_status st = radix_sort(m, a, tmp, n, &s);
     uint32_t r = 0;
-    for (size_t i = 0; i < n; i++) {
+    for (size_t i = 0; st == PHKS_OK && i < n; i++) {
         double x = f[s[i].id];
         if (i > 0 && x != m->value[r])
             r++;
@@ -208,7 +266,7 @@ static phks_status rank_values(merger *m, const double *f, size_t n)
     }
     phks_free(a);
     phks_free(tmp);
-    return PHKS_OK;
+    return st;
 }
 
 static uint32_t edge_rank(const merger *m, uint32_t e)
@@ -411,14 +469,19 @@ static void queue_merge_least(merger *m)
 
 /* ---- the phases */
 
+/* Ranks, per-triangle state and triangle order, for a merger whose
+ * progress fields are set and the rest zero. Releases m on failure. */
 static phks_status merger_init(merger *m, const phks_mesh *mesh, const double *f)
 {
     size_t n_v = mesh->vertex_count, n_t = mesh->triangle_count;
-    *m = (merger){0};
     m->mesh = mesh;
     m->edge_start = mesh->edge_tri_offset;
     m->edge_tris = mesh->edge_tris;
-    phks_status st = rank_values(m, f, n_v);
+    phks_status st = phase(m, PHASE_RANKS, 0, 1);
+    if (st == PHKS_OK)
+        st = rank_values(m, f, n_v);
+    if (st == PHKS_OK)
+        st = phase(m, PHASE_INIT, 0, 1);
     if (st != PHKS_OK) {
         merger_release(m);
         return st;
@@ -437,6 +500,11 @@ static phks_status merger_init(merger *m, const phks_mesh *mesh, const double *f
 
     const uint32_t *corner = mesh->triangles;
     for (uint32_t t = 0; t < n_t; t++) {
+        if (due(t, HEAVY) && (st = report(m, t, n_t)) != PHKS_OK) {
+            phks_free(start);
+            merger_release(m);
+            return st;
+        }
         const uint32_t *c = corner + 3 * (size_t)t;
         const uint32_t r[3] = {m->vertex_rank[c[0]], m->vertex_rank[c[1]],
                                m->vertex_rank[c[2]]};
@@ -467,22 +535,28 @@ static phks_status merger_init(merger *m, const phks_mesh *mesh, const double *f
 }
 
 /* Merges every zero-persistence region, in triangle order; leaves the
- * others (settled) in m->order[0 .. *kept). Returns the merge count. */
-static size_t merge_zero_persistence(merger *m, size_t n_t, size_t *kept)
+ * others (settled) in m->order[0 .. *kept) and counts the merges into
+ * *merges. */
+static phks_status merge_zero_persistence(merger *m, size_t n_t, size_t *kept,
+                                          size_t *merges)
 {
-    size_t merges = 0, k = 0;
-    for (size_t i = 0; i < n_t; i++) {
+    size_t k = 0;
+    *merges = 0;
+    phks_status st = phase(m, PHASE_SWEEP, 0, 1);
+    for (size_t i = 0; st == PHKS_OK && i < n_t; i++) {
+        if (due(i, HEAVY) && (st = report(m, i, n_t)) != PHKS_OK)
+            break;
         uint32_t t = m->order[i]; /* a root: not merged yet */
         uint32_t h = settle(m, t);
         if (h != NIL && node_at(m, h)->key >> 32 == m->tri[t].rank) {
             merge_across(m, t);
-            merges++;
+            ++*merges;
         } else {
             m->order[k++] = t;
         }
     }
     *kept = k;
-    return merges;
+    return st;
 }
 
 /* Whether edge e has a triangle outside the region of triangle t, for a
@@ -504,6 +578,9 @@ static int leaves_region(const merger *m, uint32_t e, uint32_t t)
 static phks_status rebuild_heaps(merger *m, size_t n_t, size_t kept)
 {
     uint32_t *p = m->parent;
+    phks_status st = phase(m, PHASE_HEAPS, 0, 1);
+    if (st != PHKS_OK)
+        return st;
     uint32_t *start = phks_calloc(kept + 1, sizeof *start);
     if (!start)
         return phks_fail_oom("persistence heaps");
@@ -511,23 +588,32 @@ static phks_status rebuild_heaps(merger *m, size_t n_t, size_t kept)
         m->tri[m->order[i]].slot = i; /* region number, for now */
         m->tri[m->order[i]].heap = NIL;
     }
-    for (uint32_t t = 0; t < n_t; t++)
+    /* Three passes over the triangles: a third of the phase each. */
+    for (uint32_t t = 0; t < n_t; t++) {
+        if (due(t, LIGHT) && (st = report(m, t, 3 * n_t)) != PHKS_OK)
+            goto fail;
         p[t] = find(m, t);
+    }
     /* The old nodes are dead: their child field notes boundary edges. */
-    for (uint32_t t = 0; t < n_t; t++)
+    for (uint32_t t = 0; t < n_t; t++) {
+        if (due(t, LIGHT) && (st = report(m, n_t + t, 3 * n_t)) != PHKS_OK)
+            goto fail;
         for (uint32_t k = 0; k < 3; k++) {
             heap_node *old = &m->tri[t].node[k];
             old->child = (uint32_t)leaves_region(m, (uint32_t)old->key, t);
             start[m->tri[p[t]].slot + 1] += old->child;
         }
+    }
     for (size_t i = 0; i < kept; i++)
         start[i + 1] += start[i];
     m->nodes = phks_malloc_array(start[kept] ? start[kept] : 1, sizeof *m->nodes);
     if (!m->nodes) {
-        phks_free(start);
-        return phks_fail_oom("persistence heaps");
+        st = phks_fail_oom("persistence heaps");
+        goto fail;
     }
-    for (uint32_t t = 0; t < n_t; t++)
+    for (uint32_t t = 0; t < n_t; t++) {
+        if (due(t, LIGHT) && (st = report(m, 2 * n_t + t, 3 * n_t)) != PHKS_OK)
+            goto fail;
         for (uint32_t k = 0; k < 3; k++) {
             uint64_t key = m->tri[t].node[k].key;
             if (!m->tri[t].node[k].child)
@@ -537,16 +623,21 @@ static phks_status rebuild_heaps(merger *m, size_t n_t, size_t kept)
             m->nodes[id] = (heap_node){key, NIL, NIL};
             root->heap = meld(m, root->heap, id);
         }
+    }
     for (uint32_t i = 0; i < kept; i++)
         m->tri[m->order[i]].slot = NIL;
+fail:
     phks_free(start);
-    return PHKS_OK;
+    return st;
 }
 
 /* Fills the queue with the regions left by the sweep. m->order becomes
  * the queue positions, indexed by central triangle. */
 static phks_status queue_build(merger *m, size_t kept)
 {
+    phks_status st = phase(m, PHASE_QUEUE, 0, 1);
+    if (st != PHKS_OK)
+        return st;
     m->queue = phks_malloc_array(kept ? kept : 1, sizeof *m->queue);
     if (!m->queue)
         return phks_fail_oom("persistence queue");
@@ -591,17 +682,25 @@ static uint32_t group_find(uint32_t *up, uint32_t x)
 static phks_status survivors_persistence(merger *m, size_t n)
 {
     size_t n_t = m->mesh->triangle_count, n_e = m->mesh->edge_count, b = 0;
+    phks_status st = phase(m, PHASE_SURVIVORS, 0, 0.5);
+    if (st != PHKS_OK)
+        return st;
     for (uint32_t i = 0; i < n; i++) {
         m->queue[i].p = INFINITY;
         m->tri[m->queue[i].t].slot = i;
     }
     uint32_t *label = m->order; /* the queue is done with */
     for (uint32_t t = 0; t < n_t; t++) {
+        if (due(t, LIGHT) && (st = report(m, t, n_t + n_e)) != PHKS_OK)
+            return st;
         m->parent[t] = find(m, t);
         label[t] = m->tri[m->parent[t]].slot;
     }
-    for (uint32_t e = 0; e < n_e; e++)
+    for (uint32_t e = 0; e < n_e; e++) {
+        if (due(e, LIGHT) && (st = report(m, n_t + e, n_t + n_e)) != PHKS_OK)
+            return st;
         b += is_boundary(m, label, e) != 0;
+    }
     if (b == 0)
         return PHKS_OK;
     sort_item *a = phks_malloc_array(b, sizeof *a);
@@ -616,14 +715,26 @@ static phks_status survivors_persistence(merger *m, size_t n)
         return phks_fail_oom("persistence boundary edges");
     }
     size_t k = 0;
-    for (uint32_t e = 0; e < n_e; e++)
+    st = phase(m, PHASE_SURVIVORS, 0.5, 0.75);
+    for (uint32_t e = 0; st == PHKS_OK && e < n_e; e++) {
+        if (due(e, LIGHT) && (st = report(m, e, n_e)) != PHKS_OK)
+            break;
         if (is_boundary(m, label, e))
             a[k++] = (sort_item){(uint64_t)edge_rank(m, e) << 32 | e, e};
-    sort_item *s = radix_sort(a, tmp, b);
+    }
+    sort_item *s = NULL;
+    if (st == PHKS_OK)
+        st = phase(m, PHASE_SURVIVORS, 0.75, 0.85);
+    if (st == PHKS_OK)
+        st = radix_sort(m, a, tmp, b, &s);
+    if (st == PHKS_OK)
+        st = phase(m, PHASE_SURVIVORS, 0.85, 1);
     for (uint32_t i = 0; i < n; i++)
         up[i] = top[i] = i;
     const region_entry *q = m->queue;
-    for (size_t j = b; j-- > 0;) {
+    for (size_t j = b; st == PHKS_OK && j-- > 0;) {
+        if (due(b - j, HEAVY) && (st = report(m, b - j, b)) != PHKS_OK)
+            break;
         uint32_t e = s[j].id, eldest = NIL;
         for (uint32_t i = m->edge_start[e]; i < m->edge_start[e + 1]; i++) {
             uint32_t g = group_find(up, label[m->edge_tris[i]]);
@@ -643,7 +754,7 @@ static phks_status survivors_persistence(merger *m, size_t n)
     phks_free(tmp);
     phks_free(up);
     phks_free(top);
-    return PHKS_OK;
+    return st;
 }
 
 /* Highest vertex of a triangle: latest in (f, vertex index). */
@@ -673,6 +784,17 @@ phks_status phks_persistent_maxima(const phks_mesh *mesh, const double *f,
                                    phks_maximum *out, size_t *count,
                                    uint32_t *region_of_triangle)
 {
+    return phks_persistence_run(mesh, f, max_count, threshold, out, count,
+                                region_of_triangle, NULL, 0, 0);
+}
+
+phks_status phks_persistence_run(const phks_mesh *mesh, const double *f,
+                                 size_t max_count, double threshold,
+                                 phks_maximum *out, size_t *count,
+                                 uint32_t *region_of_triangle,
+                                 const phks_options *opt, double done,
+                                 double span)
+{
     if (count)
         *count = 0;
     if (!mesh || !f || !out || !count)
@@ -693,18 +815,29 @@ phks_status phks_persistent_maxima(const phks_mesh *mesh, const double *f,
                              "is not finite",
                              v, f[v]);
 
-    merger m;
+    merger m = {0};
+    m.opt = opt;
+    m.done = done;
+    m.span = span;
     phks_status st = merger_init(&m, mesh, f);
     if (st != PHKS_OK)
         return st;
-    size_t n_t = mesh->triangle_count, kept;
+    size_t n_t = mesh->triangle_count, kept, merges;
     /* p = 0 <= threshold: these merges happen whatever the stop rule. */
-    size_t regions = n_t - merge_zero_persistence(&m, n_t, &kept);
-    st = rebuild_heaps(&m, n_t, kept);
+    st = merge_zero_persistence(&m, n_t, &kept, &merges);
+    size_t regions = n_t - merges;
+    if (st == PHKS_OK)
+        st = rebuild_heaps(&m, n_t, kept);
     if (st == PHKS_OK)
         st = queue_build(&m, kept);
+    /* At least kept - max_count merges follow (more with a threshold):
+     * the phase's fraction is measured against that. */
+    size_t queued = 0, expected = kept > max_count ? kept - max_count : 1;
     while (st == PHKS_OK && least_is_paired(&m) &&
            (m.queue[0].p <= threshold || regions > max_count)) {
+        if (due(++queued, HEAVY) &&
+            (st = report(&m, queued, expected)) != PHKS_OK)
+            break;
         queue_merge_least(&m);
         regions--;
     }

@@ -91,25 +91,37 @@ static double hks_factor(const phks_spectrum *spec, const phks_options *opt,
     return mass / trace;
 }
 
+/* Whether taper_at_boundary changes anything. */
+static bool tapers(const phks_mesh *mesh, const phks_options *opt)
+{
+    return opt->boundary_margin != 0 && mesh->boundary_edge_count != 0;
+}
+
 /* Tapers h to zero at the mesh boundary: h(v) (1 - exp(-(d(v) / m)^2)),
  * d the distance to the boundary in the unit box, m the margin. A cut
  * piece's HKS rises towards the cut (heat that would have crossed it
  * stays), so without this every maximum of a partial scan sits on its
  * silhouette; with it, the boundary is a minimum and the maxima are those
- * the piece shares with its whole. */
+ * the piece shares with its whole. Progress in PHKS_STAGE_PERSISTENCE
+ * from 0 to TAPER_SPAN. */
+#define TAPER_SPAN 0.3
+
 static phks_status taper_at_boundary(const phks_mesh *mesh,
                                      const phks_options *opt, double *h)
 {
-    if (opt->boundary_margin == 0 || mesh->boundary_edge_count == 0)
+    if (!tapers(mesh, opt))
         return PHKS_OK;
     double scale, m = opt->boundary_margin * sqrt(4 * opt->feature_scale * opt->tau);
     double *d = phks_malloc_array(mesh->vertex_count, sizeof *d);
     if (!d)
         return phks_fail_oom("boundary taper");
     /* Beyond 6 m the taper differs from 1 by less than e^-36. */
-    phks_status st = phks_unit_box_scale(mesh, (phks_box)opt->box, &scale);
+    phks_status st = phks_unit_box_scale_progress(
+        mesh, (phks_box)opt->box, opt, PHKS_STAGE_PERSISTENCE, 0, 0.05, &scale);
     if (st == PHKS_OK)
-        st = phks_boundary_distance(mesh, scale, 6 * m, d);
+        st = phks_boundary_distance(mesh, scale, 6 * m, opt,
+                                    PHKS_STAGE_PERSISTENCE, 0.05,
+                                    TAPER_SPAN - 0.05, d);
     for (size_t v = 0; st == PHKS_OK && v < mesh->vertex_count; v++)
         h[v] *= -expm1(-(d[v] / m) * (d[v] / m));
     phks_free(d);
@@ -158,8 +170,11 @@ phks_status phks_signature_from_spectrum(const phks_mesh *mesh,
     maxima = st == PHKS_OK ? phks_malloc_array(wanted, sizeof *maxima) : NULL;
     if (st == PHKS_OK && !maxima)
         st = phks_fail_oom("feature points");
+    /* The persistence up to 0.95, the feature vectors after. */
+    double from = tapers(mesh, &opt) ? TAPER_SPAN : 0;
     if (st == PHKS_OK)
-        st = phks_persistent_maxima(mesh, h, wanted, 0, maxima, &found, NULL);
+        st = phks_persistence_run(mesh, h, wanted, 0, maxima, &found, NULL,
+                                  &opt, from, 0.95 - from);
     if (st == PHKS_OK)
         st = phks_signature_alloc(found, opt.scale_count, &sig);
     if (st != PHKS_OK)

@@ -75,12 +75,18 @@ static phks_status compute_simplified(const phks_mesh *mesh,
     double *sample_xyz = NULL, *sample_mass = NULL;
     double *area = phks_malloc_array(n, sizeof *area);
     phks_status st = area ? PHKS_OK : phks_fail_oom("spectrum");
+    /* The unit box and the areas: three passes over the triangles, a
+     * few tenths of a second on a million vertices. */
     if (st == PHKS_OK)
-        st = phks_unit_box_scale(mesh, (phks_box)opt->box, &scale);
-    if (st == PHKS_OK) {
-        phks_vertex_areas(mesh, scale, area);
-        st = phks_simplify(mesh, scale, area, opt, 0, 0.85, &samples);
-    }
+        st = phks_progress(opt, PHKS_STAGE_OPERATOR, 0);
+    if (st == PHKS_OK)
+        st = phks_unit_box_scale_progress(mesh, (phks_box)opt->box, opt,
+                                          PHKS_STAGE_OPERATOR, 0, 0.02, &scale);
+    if (st == PHKS_OK)
+        st = phks_vertex_areas_progress(mesh, scale, opt, PHKS_STAGE_OPERATOR,
+                                        0.02, 0.01, area);
+    if (st == PHKS_OK)
+        st = phks_simplify(mesh, scale, area, opt, 0.03, 0.82, &samples);
     size_t m = samples.count;
     if (st == PHKS_OK) {
         sample_xyz = phks_malloc_array(m, 3 * sizeof *sample_xyz);

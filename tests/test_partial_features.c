@@ -2,13 +2,16 @@
  * retrievable: with the default boundary margin no feature point sits on
  * the cut of a generated incomplete model or partial scan (the paper's
  * literal method puts them there), and a cut piece of a creature still
- * finds its own kind among complete creatures. */
+ * finds its own kind among complete creatures. Also the boundary
+ * distances behind the margin, against brute force. */
 #include "partial.h"
 #include "shapes.h"
+#include "soup.h"
 #include "testutil.h"
 
 #include <math.h>
 #include <stdlib.h>
+#include <string.h>
 
 enum { INCOMPLETE, PARTIAL };
 
@@ -169,6 +172,94 @@ START_TEST(cut_piece_finds_its_kind)
 }
 END_TEST
 
+static int cancel_at_report(void *user, phks_stage stage, double fraction)
+{
+    int *left = user;
+    (void)stage;
+    (void)fraction;
+    return --*left <= 0;
+}
+
+/* phks_boundary_distance against brute force (capped), on a cut piece of
+ * a creature and on a flat 150 x 150 grid (22,801 vertices: two batches):
+ * the same numbers on one worker thread and on three, and a cancellation
+ * at any report returns PHKS_ERROR_CANCELLED, nothing leaked. */
+START_TEST(boundary_distances_are_exact_and_cancellable)
+{
+    phks_allocator counting = {count_malloc, count_realloc, count_free, NULL};
+    ck_assert_int_eq(phks_set_allocator(&counting), PHKS_OK);
+    long start = alloc_live;
+    for (int which = 0; which < 2; which++) {
+        phks_mesh *m;
+        if (which == 0) {
+            m = piece_of(SHAPE_QUADRUPED, 2, INCOMPLETE, 7);
+        } else {
+            soup sp = {0};
+            const uint32_t side = 150;
+            for (uint32_t j = 0; j <= side; j++)
+                for (uint32_t i = 0; i <= side; i++)
+                    soup_vertex(&sp, i, j, 0.01 * i * j / side);
+            for (uint32_t j = 0; j < side; j++)
+                for (uint32_t i = 0; i < side; i++) {
+                    uint32_t a = j * (side + 1) + i, d = a + side + 1;
+                    soup_triangle(&sp, a, a + 1, d + 1);
+                    soup_triangle(&sp, a, d + 1, d);
+                }
+            m = soup_mesh_take(&sp);
+        }
+        size_t n = phks_mesh_vertex_count(m);
+        double scale, cap = which == 0 ? 0.1 : 0.05;
+        ck_assert_int_eq(phks_unit_box_scale(m, PHKS_BOX_PRINCIPAL, &scale), PHKS_OK);
+        double *d1 = malloc(n * sizeof *d1), *d3 = malloc(n * sizeof *d3);
+        ck_assert(d1 && d3);
+        phks_options o;
+        phks_options_init(&o);
+        o.threads = 1;
+        int reports = 1 << 30; /* never cancels */
+        o.progress = cancel_at_report;
+        o.progress_user = &reports;
+        ck_assert_int_eq(phks_boundary_distance(m, scale, cap, &o,
+                                                PHKS_STAGE_PERSISTENCE, 0, 1, d1),
+                         PHKS_OK);
+        int calls = (1 << 30) - reports;
+        ck_assert_int_eq(calls, which == 0 ? 1 : 2);
+        o.threads = 3;
+        ck_assert_int_eq(phks_boundary_distance(m, scale, cap, NULL,
+                                                PHKS_STAGE_PERSISTENCE, 0, 1, d3),
+                         PHKS_OK);
+        ck_assert(memcmp(d1, d3, n * sizeof *d1) == 0);
+        ck_assert_int_eq(phks_boundary_distance(m, scale, cap, &o,
+                                                PHKS_STAGE_PERSISTENCE, 0, 1, d3),
+                         PHKS_OK);
+        ck_assert(memcmp(d1, d3, n * sizeof *d1) == 0);
+        size_t capped = 0;
+        for (size_t v = 0; v < n; v++) {
+            double want = fmin(boundary_distance(m, (uint32_t)v, scale), cap);
+            REQUIRE_MSG(fabs(d1[v] - want) <= 1e-12,
+                        "vertex %zu: %.17g, brute force %.17g", v, d1[v], want);
+            capped += want == cap;
+        }
+        ck_assert_uint_gt(capped, 0);
+        ck_assert_uint_lt(capped, n);
+        o.threads = 1;
+        for (int k = 1; k <= calls; k++) {
+            long live = alloc_live;
+            reports = k;
+            ck_assert_int_eq(phks_boundary_distance(m, scale, cap, &o,
+                                                    PHKS_STAGE_PERSISTENCE, 0,
+                                                    1, d3),
+                             PHKS_ERROR_CANCELLED);
+            ck_assert_int_eq(alloc_live, live);
+        }
+        free(d1);
+        free(d3);
+        phks_mesh_free(m);
+    }
+    ck_assert_int_eq(alloc_live, start);
+    phks_set_allocator(NULL);
+}
+END_TEST
+
 int main(void)
 {
     Suite *s = suite_create("partial_features");
@@ -176,6 +267,7 @@ int main(void)
     tcase_set_timeout(c, 600);
     tcase_add_loop_test(c, no_feature_on_the_cut, 0, SHAPE_KIND_COUNT);
     tcase_add_test(c, cut_piece_finds_its_kind);
+    tcase_add_test(c, boundary_distances_are_exact_and_cancellable);
     suite_add_tcase(s, c);
     return run_suite(s);
 }

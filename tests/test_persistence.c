@@ -978,6 +978,116 @@ START_TEST(test_out_of_memory)
 }
 END_TEST
 
+/* Progress of phks_persistence_run, reported in [0.25, 0.75]. */
+typedef struct {
+    int calls, stop_at; /* cancel at report stop_at (0: never)       */
+    int bad;            /* other stage, out of range, or backwards    */
+    double last;
+} progress_log;
+
+static int record(void *user, phks_stage stage, double fraction)
+{
+    progress_log *log = user;
+    log->calls++;
+    log->bad += stage != PHKS_STAGE_PERSISTENCE || !(fraction >= 0.25) ||
+                !(fraction <= 0.75) || fraction < log->last;
+    log->last = fraction;
+    return log->stop_at > 0 && log->calls >= log->stop_at;
+}
+
+/* Runs the internal variant with progress and checks it gives what the
+ * public function gives, bit for bit; returns the number of reports. */
+static int reports_of(const phks_mesh *mesh, const double *f, size_t max_count)
+{
+    size_t nt = phks_mesh_triangle_count(mesh), ca = 0, cb = 0;
+    phks_maximum *a = calloc(max_count, sizeof *a);
+    phks_maximum *b = calloc(max_count, sizeof *b);
+    uint32_t *la = malloc(nt * sizeof *la), *lb = malloc(nt * sizeof *lb);
+    ck_assert(a && b && la && lb);
+    phks_options o;
+    phks_options_init(&o);
+    progress_log log = {0, 0, 0, 0};
+    o.progress = record;
+    o.progress_user = &log;
+    ck_assert_int_eq(phks_persistent_maxima(mesh, f, max_count, 0, a, &ca, la),
+                     PHKS_OK);
+    ck_assert_int_eq(phks_persistence_run(mesh, f, max_count, 0, b, &cb, lb, &o,
+                                          0.25, 0.5),
+                     PHKS_OK);
+    ck_assert_uint_eq(ca, cb);
+    ck_assert(memcmp(a, b, ca * sizeof *a) == 0);
+    ck_assert(memcmp(la, lb, nt * sizeof *la) == 0);
+    ck_assert_int_eq(log.bad, 0);
+    free(a);
+    free(b);
+    free(la);
+    free(lb);
+    return log.calls;
+}
+
+static phks_mesh *grid_mesh(size_t side)
+{
+    soup s = {0};
+    add_grid(&s, side, side, 0, 0, 0, NULL);
+    return soup_mesh_take(&s);
+}
+
+/* The number of reports grows with the mesh (a report every so many
+ * steps in each phase, whatever the time), and a cancellation at any
+ * report returns PHKS_ERROR_CANCELLED at once, with *count 0 and nothing
+ * leaked. Not timed: the benchmark measures the gaps. */
+START_TEST(test_progress_grows_and_cancels)
+{
+    const size_t sides[3] = {40, 200, 400}; /* 3.2k, 80k, 320k triangles */
+    int calls[3];
+    for (int i = 0; i < 3; i++) {
+        phks_mesh *mesh = grid_mesh(sides[i]);
+        /* White noise: many maxima, so every phase has work. */
+        double *f = make_function(mesh, F_UNIFORM, 11);
+        calls[i] = reports_of(mesh, f, 15);
+        if (i == 1) {
+            double *g = make_function(mesh, F_SMOOTH, 11);
+            ck_assert_int_gt(reports_of(mesh, g, 15), 5);
+            free(g);
+        }
+        free(f);
+        phks_mesh_free(mesh);
+    }
+    ck_assert_int_ge(calls[0], 6); /* at least one per phase */
+    ck_assert_int_gt(calls[1], calls[0]);
+    ck_assert_int_gt(calls[2], calls[1] + 8);
+
+    const phks_allocator counting = {count_malloc, count_realloc, count_free,
+                                     NULL};
+    ck_assert_int_eq(phks_set_allocator(&counting), PHKS_OK);
+    phks_mesh *mesh = grid_mesh(200);
+    double *f = make_function(mesh, F_UNIFORM, 11);
+    uint32_t *label = malloc(phks_mesh_triangle_count(mesh) * sizeof *label);
+    ck_assert_ptr_nonnull(label);
+    phks_options o;
+    phks_options_init(&o);
+    o.progress = record;
+    for (int k = 1; k <= calls[1]; k++) {
+        progress_log log = {0, k, 0, 0};
+        o.progress_user = &log;
+        phks_maximum out[15];
+        size_t count = 99;
+        long live = alloc_live;
+        ck_assert_int_eq(phks_persistence_run(mesh, f, 15, 0, out, &count,
+                                              label, &o, 0.25, 0.5),
+                         PHKS_ERROR_CANCELLED);
+        ck_assert_int_eq(log.calls, k); /* nothing after the cancellation */
+        ck_assert_uint_eq(count, 0);
+        ck_assert_int_eq(alloc_live, live);
+    }
+    free(label);
+    free(f);
+    phks_mesh_free(mesh);
+    ck_assert_int_eq(alloc_live, 0);
+    phks_set_allocator(NULL);
+}
+END_TEST
+
 static Suite *suite(void)
 {
     Suite *s = suite_create("persistence");
@@ -991,6 +1101,7 @@ static Suite *suite(void)
     tcase_add_test(tc, test_larger_meshes);
     tcase_add_test(tc, test_deterministic);
     tcase_add_test(tc, test_out_of_memory);
+    tcase_add_test(tc, test_progress_grows_and_cancels);
     suite_add_tcase(s, tc);
     return s;
 }

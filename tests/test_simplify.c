@@ -524,13 +524,20 @@ static int record(void *user, phks_stage stage, double fraction)
 }
 
 /* Every stage is reported; cancelling in any stage, and at any report
- * inside the choice of samples and the samples' operator, returns
- * PHKS_ERROR_CANCELLED with no output and no later stage. */
+ * inside the choice of samples and the samples' operator or inside the
+ * persistence, returns PHKS_ERROR_CANCELLED with no output, no later
+ * stage, no later report and nothing leaked (one worker thread: the
+ * counting allocator is not thread-safe). */
 START_TEST(progress_reaches_every_stage_and_cancels)
 {
+    phks_allocator counting = {count_malloc, count_realloc, count_free, NULL};
+    ck_assert_int_eq(phks_set_allocator(&counting), PHKS_OK);
+    long start = alloc_live;
     phks_mesh *m = creature(SHAPE_OCTOPUS, 2);
+    long base = alloc_live;
     phks_options o;
     simp_options(&o, 1500);
+    o.threads = 1;
     progress_log log = {{0}, -1, 0, 0};
     o.progress = record;
     o.progress_user = &log;
@@ -540,22 +547,32 @@ START_TEST(progress_reaches_every_stage_and_cancels)
     for (int st = 0; st < PHKS_STAGE_COUNT; st++)
         ck_assert_int_gt(log.calls[st], 0);
     ck_assert_int_eq(log.bad, 0);
-    /* The sampling reports many times. */
+    /* The sampling reports many times, the persistence at each of its
+     * phases at least. */
     int operator_calls = log.calls[PHKS_STAGE_OPERATOR];
+    int persistence_calls = log.calls[PHKS_STAGE_PERSISTENCE];
     ck_assert_int_gt(operator_calls, 50);
+    ck_assert_int_gt(persistence_calls, 6);
     for (int stop = 0; stop < PHKS_STAGE_COUNT; stop++) {
-        int last = stop == PHKS_STAGE_OPERATOR ? operator_calls : 1;
-        for (int call = 1; call <= last; call += stop == PHKS_STAGE_OPERATOR ? 17 : 1) {
+        int last = stop == PHKS_STAGE_OPERATOR      ? operator_calls
+                   : stop == PHKS_STAGE_PERSISTENCE ? persistence_calls
+                                                    : 1;
+        int step = stop == PHKS_STAGE_OPERATOR ? 17 : stop == PHKS_STAGE_PERSISTENCE ? 3 : 1;
+        for (int call = 1; call <= last; call += step) {
             progress_log cancel = {{0}, stop, call, 0};
             o.progress_user = &cancel;
             sig = (phks_signature *)1;
             ck_assert_int_eq(phks_signature_compute(m, &o, &sig), PHKS_ERROR_CANCELLED);
             ck_assert_ptr_null(sig);
+            ck_assert_int_eq(cancel.calls[stop], call);
+            ck_assert_int_eq(alloc_live, base);
             for (int later = stop + 1; later < PHKS_STAGE_COUNT; later++)
                 ck_assert_int_eq(cancel.calls[later], 0);
         }
     }
     phks_mesh_free(m);
+    ck_assert_int_eq(alloc_live, start);
+    phks_set_allocator(NULL);
 }
 END_TEST
 
