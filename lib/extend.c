@@ -61,10 +61,11 @@
  * 0.2 and above flatten the HKS at tips, below 0.05 the extension makes
  * spikes of its own. */
 #define DEN_FLOOR 0.1
-/* Vertices per batch of blocks between progress reports: a few hundredths
- * of a second (the 1.6M-vertex armadillo: about 100 batches in 10 s). The
- * split never changes the numbers: each block is computed on its own. */
-#define BATCH_VERTICES 16384
+/* Vertices per batch of blocks between progress reports: about a tenth of
+ * a second on two loaded cores (the 1.6M-vertex armadillo: about 200
+ * batches in 10-20 s). The split never changes the numbers: each block is
+ * computed on its own. */
+#define BATCH_VERTICES 8192
 #define EIGEN_BLOCK 64
 
 void phks_extension_free(struct phks_extension *ext)
