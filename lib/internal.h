@@ -107,6 +107,15 @@ phks_status phks_unit_box_scale(const phks_mesh *mesh, phks_box box,
 /* Per-vertex area: a third of the area of the incident triangles, for
  * positions scaled by `scale`. mass has vertex_count entries. */
 void phks_vertex_areas(const phks_mesh *mesh, double scale, double *mass);
+/* Eigen-decomposition of the symmetric 3 x 3 matrix (row-major; its upper
+ * triangle is read) by cyclic Jacobi, in the layout of LAPACK's row-major
+ * dsyev: values ascending, vectors[3 * i + j] component i of the unit
+ * eigenvector j, the columns orthonormal. Each vector's entry of largest
+ * magnitude (the first of equals) is positive. A diagonal matrix gives
+ * the unit vectors, in the order of its sorted diagonal. The same bits on
+ * every run, whatever the BLAS threads; finite input assumed. */
+void phks_sym3_eigen(const double matrix[9], double values[3],
+                     double vectors[9]);
 /* The same with progress in `stage` from done to done + span through opt
  * (NULL: none), every 2^18 triangles or vertices (a tenth of a second for
  * a million vertices takes a few reports); they return

@@ -20,9 +20,14 @@
  * Meshes: perturbed ellipsoids (closed, 42 to 642 vertices), a torus, an
  * open height field, two components (far apart and within the cut-off), a
  * triangle soup with duplicated vertices, a non-manifold mesh.
+ *
+ * The principal box: its 3 x 3 eigen-solver (Jacobi) against LAPACK's
+ * dsyev on random and degenerate matrices, and its scale at any size of
+ * the mesh and any number of BLAS threads.
  */
 #include "soup.h"
 
+#include <cblas.h>
 #include <lapacke.h>
 #include <math.h>
 #include <stdio.h>
@@ -657,6 +662,214 @@ START_TEST(test_cancel_operator)
 }
 END_TEST
 
+/* =====================================================================
+ * The principal box's 3 x 3 eigen-solver
+ * ===================================================================== */
+
+/* Q diag(d) Q^T for a rotation Q, row-major. */
+static void from_spectrum(const double q[9], const double d[3], double a[9])
+{
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++) {
+            double x = 0;
+            for (int k = 0; k < 3; k++)
+                x += q[3 * i + k] * d[k] * q[3 * j + k];
+            a[3 * i + j] = x;
+        }
+    for (int i = 0; i < 3; i++) /* exactly symmetric */
+        for (int j = 0; j < i; j++)
+            a[3 * i + j] = a[3 * j + i];
+}
+
+/* phks_sym3_eigen(a) against dsyev: values, residuals, orthonormality,
+ * the sign convention, and the eigenspaces (a vector for a simple
+ * eigenvalue, the projector for a repeated one). */
+static void check_sym3(const double a[9], const char *what, int index)
+{
+    double w[3], v[9], lw[3], lv[9];
+    phks_sym3_eigen(a, w, v);
+    memcpy(lv, a, sizeof lv);
+    REQUIRE(LAPACKE_dsyev(LAPACK_ROW_MAJOR, 'V', 'U', 3, lv, 3, lw) == 0);
+    double norm = fmax(fabs(lw[0]), fabs(lw[2]));
+    double tiny = 1e-300; /* the zero matrix */
+    for (int j = 0; j < 3; j++) {
+        REQUIRE_MSG(fabs(w[j] - lw[j]) <= 4e-15 * norm + tiny,
+                    "%s %d: value %d %.17g, dsyev %.17g", what, index, j, w[j], lw[j]);
+        if (j > 0)
+            REQUIRE(w[j - 1] <= w[j]);
+        double res = 0, big = 0;
+        for (int i = 0; i < 3; i++) {
+            double r = -w[j] * v[3 * i + j];
+            for (int k = 0; k < 3; k++)
+                r += a[3 * i + k] * v[3 * k + j];
+            res = fmax(res, fabs(r));
+            if (fabs(v[3 * i + j]) > fabs(big))
+                big = v[3 * i + j];
+        }
+        REQUIRE_MSG(res <= 4e-15 * norm + tiny, "%s %d: residual %d %g of %g",
+                    what, index, j, res, norm);
+        REQUIRE_MSG(big > 0, "%s %d: vector %d has its largest entry negative",
+                    what, index, j);
+        for (int l = 0; l < 3; l++) {
+            double dot = 0;
+            for (int i = 0; i < 3; i++)
+                dot += v[3 * i + j] * v[3 * i + l];
+            REQUIRE_MSG(fabs(dot - (j == l)) <= 1e-15, "%s %d: columns %d, %d: %g",
+                        what, index, j, l, dot);
+        }
+    }
+    /* Eigenspaces: group the values that are equal within 1e-8 |A|. */
+    for (int j = 0; j < 3;) {
+        int end = j + 1;
+        while (end < 3 && lw[end] - lw[end - 1] <= 1e-8 * norm)
+            end++;
+        double gap = INFINITY; /* to the other eigenvalues */
+        if (j > 0)
+            gap = lw[j] - lw[j - 1];
+        if (end < 3)
+            gap = fmin(gap, lw[end] - lw[end - 1]);
+        if (end - j < 3) {
+            /* projectors onto the space of w[j .. end) */
+            for (int r = 0; r < 3; r++)
+                for (int c = 0; c < 3; c++) {
+                    double pj = 0, pl = 0;
+                    for (int k = j; k < end; k++) {
+                        pj += v[3 * r + k] * v[3 * c + k];
+                        pl += lv[3 * r + k] * lv[3 * c + k];
+                    }
+                    REQUIRE_MSG(fabs(pj - pl) <= 1e-14 * norm / gap + 1e-15,
+                                "%s %d: eigenspace of %d..%d differs by %g (gap %g)",
+                                what, index, j, end - 1, fabs(pj - pl), gap / norm);
+                }
+        }
+        j = end;
+    }
+}
+
+START_TEST(test_sym3_eigen_against_dsyev)
+{
+    uint64_t rng = 2024;
+    for (int i = 0; i < 3000; i++) {
+        /* random symmetric, entries over 60 decades */
+        double a[9], scale = pow(10, 60 * test_random(&rng) - 30);
+        for (int k = 0; k < 9; k++)
+            a[k] = (2 * test_random(&rng) - 1) * scale;
+        for (int r = 0; r < 3; r++)
+            for (int c = 0; c < r; c++)
+                a[3 * r + c] = a[3 * c + r];
+        check_sym3(a, "random", i);
+
+        /* given spectra: repeated, triple, clustered, of mixed signs,
+         * singular, rank one */
+        double q[9], d[3];
+        random_rotation(&rng, q);
+        double x = 2 * test_random(&rng) - 1, y = 2 * test_random(&rng) - 1;
+        switch (i % 6) {
+        case 0: d[0] = x; d[1] = x; d[2] = y; break;
+        case 1: d[0] = x; d[1] = y; d[2] = y; break;
+        case 2: d[0] = x; d[1] = x; d[2] = x; break;
+        case 3: d[0] = x; d[1] = x * (1 + 1e-9); d[2] = y; break;
+        case 4: d[0] = 0; d[1] = x; d[2] = y; break;
+        default: d[0] = 0; d[1] = 0; d[2] = x; break;
+        }
+        from_spectrum(q, d, a);
+        check_sym3(a, "spectrum", i);
+    }
+    /* Diagonal matrices give the unit vectors exactly, sorted. */
+    const double diag[4][3] = {{3, 1, 2}, {-1, -1, 5}, {0, 0, 0}, {7, 7, 7}};
+    for (int i = 0; i < 4; i++) {
+        double a[9] = {diag[i][0], 0, 0, 0, diag[i][1], 0, 0, 0, diag[i][2]};
+        double w[3], v[9];
+        phks_sym3_eigen(a, w, v);
+        check_sym3(a, "diagonal", i);
+        for (int j = 0; j < 3; j++) {
+            int ones = 0;
+            for (int r = 0; r < 3; r++) {
+                REQUIRE(v[3 * r + j] == 0 || v[3 * r + j] == 1);
+                ones += v[3 * r + j] == 1;
+                if (v[3 * r + j] == 1)
+                    REQUIRE(w[j] == diag[i][r]);
+            }
+            REQUIRE(ones == 1);
+        }
+    }
+    /* The zero matrix: zero values, the identity. */
+    double zero[9] = {0}, w[3], v[9];
+    phks_sym3_eigen(zero, w, v);
+    for (int k = 0; k < 9; k++)
+        REQUIRE(v[k] == (k % 4 == 0));
+    for (int j = 0; j < 3; j++)
+        REQUIRE(w[j] == 0);
+    /* Only the upper triangle is read; a power of two changes no vector
+     * bit and scales the values exactly. */
+    double a[9] = {2, -1, 0.5, 99, 3, 0.25, -99, 99, 1}, b[9], w2[3], v2[9];
+    double full[9] = {2, -1, 0.5, -1, 3, 0.25, 0.5, 0.25, 1};
+    phks_sym3_eigen(a, w, v);
+    phks_sym3_eigen(full, w2, v2);
+    REQUIRE(memcmp(v, v2, sizeof v) == 0 && memcmp(w, w2, sizeof w) == 0);
+    for (int k = 0; k < 9; k++)
+        b[k] = ldexp(full[k], -700);
+    phks_sym3_eigen(b, w2, v2);
+    REQUIRE(memcmp(v, v2, sizeof v) == 0);
+    for (int j = 0; j < 3; j++)
+        REQUIRE(w2[j] == ldexp(w[j], -700));
+}
+END_TEST
+
+/* The principal box of a mesh at any size (1e-150 to 1e150, where the
+ * covariance's fourth powers would overflow or underflow) is the same box:
+ * exactly so for powers of two. And it is the same, bit for bit, with one
+ * BLAS thread and with two. */
+START_TEST(test_principal_box_any_size_and_blas_threads)
+{
+    uint64_t rng = 99;
+    const double c[3] = {0.3, 0.1, -0.2}, ax[3] = {1.0, 0.7, 0.4};
+    soup base = {0};
+    add_icosphere(&base, 3, c, ax, 0.05, &rng);
+    double rot[9], shift[3] = {0.5, 0.25, -1};
+    random_rotation(&rng, rot);
+    rotate(&base, rot, shift);
+    phks_mesh *mesh = soup_mesh(&base);
+    double s0;
+    REQUIRE(phks_unit_box_scale(mesh, PHKS_BOX_PRINCIPAL, &s0) == PHKS_OK);
+    phks_mesh_free(mesh);
+    const double sizes[] = {0x1p-490, 0x1p-100, 0x1p100, 0x1p490,
+                            1e-150,   1e-100,   1e-60,   1e60,
+                            1e100,    1e150};
+    for (size_t i = 0; i < sizeof sizes / sizeof *sizes; i++) {
+        soup t = {0};
+        add_icosphere(&t, 3, c, ax, 0, &rng); /* same connectivity */
+        for (size_t k = 0; k < 3 * base.nv; k++)
+            t.xyz[k] = base.xyz[k] * sizes[i];
+        phks_mesh *m = soup_mesh(&t);
+        double s;
+        phks_status st = phks_unit_box_scale(m, PHKS_BOX_PRINCIPAL, &s);
+        REQUIRE_MSG(st == PHKS_OK, "size %g: %s", sizes[i], phks_last_error_message());
+        if (i < 4)
+            REQUIRE_MSG(s * sizes[i] == s0, "size %g: %.17g, at 1: %.17g",
+                        sizes[i], s * sizes[i], s0);
+        else
+            REQUIRE_MSG(fabs(s * sizes[i] - s0) <= 1e-14 * s0,
+                        "size %g: %.17g, at 1: %.17g", sizes[i], s * sizes[i], s0);
+        phks_mesh_free(m);
+        soup_free(&t);
+    }
+    /* BLAS threads. */
+    mesh = soup_mesh(&base);
+    double by[2];
+    int before = openblas_get_num_threads();
+    for (int t = 0; t < 2; t++) {
+        openblas_set_num_threads(t + 1);
+        REQUIRE(phks_unit_box_scale(mesh, PHKS_BOX_PRINCIPAL, &by[t]) == PHKS_OK);
+    }
+    openblas_set_num_threads(before);
+    REQUIRE(memcmp(&by[0], &by[1], sizeof by[0]) == 0);
+    REQUIRE(by[0] == s0);
+    phks_mesh_free(mesh);
+    soup_free(&base);
+}
+END_TEST
+
 static Suite *suite(void)
 {
     Suite *s = suite_create("operator");
@@ -667,6 +880,8 @@ static Suite *suite(void)
     tcase_add_test(tc, test_two_components);
     tcase_add_test(tc, test_soup_and_non_manifold);
     tcase_add_test(tc, test_principal_box);
+    tcase_add_test(tc, test_sym3_eigen_against_dsyev);
+    tcase_add_test(tc, test_principal_box_any_size_and_blas_threads);
     tcase_add_test(tc, test_cancel_operator);
     suite_add_tcase(s, tc);
     return s;
