@@ -18,8 +18,10 @@
  * child runs the signature again and asks to cancel T seconds after the
  * call began (the callback returns non-zero from its first report at or
  * after T), and prints the stage that honoured it and the latency from
- * the request to the return of phks_signature_compute. The worst latency
- * over all T is the longest gap plus the time to free everything.
+ * the request to the return of phks_signature_compute. T may also be
+ * STAGE+S (operator, eigen, hks or persist): S seconds after that stage's
+ * first report. The worst latency over all T is about the longest gap
+ * plus the time to free everything.
  *
  * --decimate N first reduces each mesh to about N vertices by quadric
  * decimation (meshoptimizer's meshopt_simplify; only when the benchmark
@@ -71,6 +73,9 @@ typedef struct {
     int silence_count;
     double cancel_at; /* cancel from the first report at or after this
                          time (0: never)                                 */
+    int cancel_stage; /* or, when >= 0, cancel_delay seconds after the
+                         first report of this stage                      */
+    double cancel_delay;
     int cancelled_in; /* stage that returned non-zero, or -1            */
 } stage_times;
 
@@ -97,6 +102,8 @@ static int on_progress(void *user, phks_stage stage, double fraction)
         t->start[stage] = x;
     t->end[stage] = x;
     note_gap(t, x, (int)stage, fraction);
+    if (t->cancel_stage >= 0 && t->start[t->cancel_stage] > 0 && t->cancel_at == 0)
+        t->cancel_at = t->start[t->cancel_stage] + t->cancel_delay;
     if (t->cancel_at > 0 && x >= t->cancel_at) {
         t->cancelled_in = (int)stage;
         return 1;
@@ -104,9 +111,11 @@ static int on_progress(void *user, phks_stage stage, double fraction)
     return 0;
 }
 
+static const char *const stage_names[] = {"operator", "eigen", "hks", "persist"};
+
 static const char *stage_name(int stage)
 {
-    static const char *const names[] = {"operator", "eigen", "hks", "persist"};
+    const char *const *names = stage_names;
     return stage >= 0 && stage < PHKS_STAGE_COUNT ? names[stage]
            : stage == -1                          ? "call"
                                                   : "return";
@@ -169,10 +178,17 @@ static double peak_mb(void)
     return (double)use.ru_maxrss / 1024;
 }
 
-/* Child: prints one table row (or, with cancel_after > 0, one line on
- * the cancellation) and exits. */
+/* When to cancel: after seconds from the call (stage -1) or from the
+ * first report of a stage; seconds 0: never. */
+typedef struct {
+    int stage;
+    double seconds;
+} cancel_request;
+
+/* Child: prints one table row (or, with a cancellation, one line on it)
+ * and exits. */
 static int run(const char *path, const phks_options *base, size_t decimate_to,
-               double trace, double cancel_after)
+               double trace, cancel_request cancel)
 {
     phks_options opt = *base;
     stage_times t;
@@ -180,6 +196,7 @@ static int run(const char *path, const phks_options *base, size_t decimate_to,
     t.last_stage = -1;
     t.trace = trace;
     t.cancelled_in = -1;
+    t.cancel_stage = -1;
     opt.progress = on_progress;
     opt.progress_user = &t;
     double t0 = now();
@@ -202,21 +219,30 @@ static int run(const char *path, const phks_options *base, size_t decimate_to,
     const char *name = strrchr(path, '/') ? strrchr(path, '/') + 1 : path;
     phks_signature *sig = NULL;
     if (st == PHKS_OK) {
-        if (cancel_after > 0)
-            t.cancel_at = now() + cancel_after;
         t1 = t.last = now();
+        if (cancel.seconds > 0 && cancel.stage < 0)
+            t.cancel_at = t1 + cancel.seconds;
+        else if (cancel.seconds > 0) {
+            t.cancel_stage = cancel.stage;
+            t.cancel_delay = cancel.seconds;
+        }
         st = phks_signature_compute(mesh, &opt, &sig);
     }
     double t2 = now();
-    if (cancel_after > 0) {
+    if (cancel.seconds > 0) {
+        char when[32];
+        snprintf(when, sizeof when, "%s%s%.2f",
+                 cancel.stage < 0 ? "" : stage_name(cancel.stage),
+                 cancel.stage < 0 ? "" : "+", cancel.seconds);
         if (st == PHKS_ERROR_CANCELLED)
-            printf("%-28s %8zu %9.2f %9s %9.3f\n", name,
-                   phks_mesh_vertex_count(mesh), cancel_after,
+            printf("%-28s %8zu %14s %9s %9.3f\n", name,
+                   phks_mesh_vertex_count(mesh), when,
                    stage_name(t.cancelled_in), t2 - t.cancel_at);
         else
-            printf("%-28s %8zu %9.2f %9s (done after %.2f s: %s)\n", name,
-                   phks_mesh_vertex_count(mesh), cancel_after, "-", t2 - t1,
+            printf("%-28s %8zu %14s %9s (done after %.2f s: %s)\n", name,
+                   phks_mesh_vertex_count(mesh), when, "-", t2 - t1,
                    phks_status_string(st));
+        fflush(stdout);
         phks_signature_free(sig);
         phks_mesh_free(mesh);
         return st == PHKS_ERROR_CANCELLED || st == PHKS_OK ? 0 : 1;
@@ -285,23 +311,31 @@ int main(int argc, char **argv)
            "times in seconds\n",
            phks_version_string(), opt.cutoff, opt.simplify_above,
            opt.simplify_target);
-    /* The cancellation times, or one 0 (no cancellation). */
-    double cancel_at[64] = {0};
+    /* The cancellation requests, or one of 0 s (no cancellation). */
+    cancel_request cancel_at[64] = {{-1, 0}};
     int cancel_count = 1;
     if (cancel_list) {
         cancel_count = 0;
         for (const char *c = cancel_list; *c && cancel_count < 64;) {
+            cancel_request r = {-1, 0};
+            for (int s = 0; s < PHKS_STAGE_COUNT; s++) {
+                size_t len = strlen(stage_names[s]);
+                if (strncmp(c, stage_names[s], len) == 0 && c[len] == '+') {
+                    r.stage = s;
+                    c += len + 1;
+                }
+            }
             char *end;
-            double x = strtod(c, &end);
-            if (end == c || !(x > 0)) {
+            r.seconds = strtod(c, &end);
+            if (end == c || !(r.seconds > 0)) {
                 fprintf(stderr, "bench-stages: --cancel-at wants positive "
-                                "seconds separated by commas\n");
+                                "seconds (T or STAGE+T) separated by commas\n");
                 return 2;
             }
-            cancel_at[cancel_count++] = x;
+            cancel_at[cancel_count++] = r;
             c = *end == ',' ? end + 1 : end;
         }
-        printf("%-28s %8s %9s %9s %9s\n", "mesh", "vertices", "cancel at",
+        printf("%-28s %8s %14s %9s %9s\n", "mesh", "vertices", "cancel at",
                "stage", "latency");
     } else {
         printf("%-28s %8s %7s %8s %8s %8s %8s %8s %6s %8s\n", "mesh",
