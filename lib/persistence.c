@@ -138,6 +138,8 @@ typedef struct merger {
      * NULL: none); the current phase covers [from, from + width) of it. */
     const phks_options *opt;
     double done, span, from, width;
+    size_t pops;            /* heap nodes popped so far: the merging
+                               loops count them as steps                */
 } merger;
 
 static void merger_release(merger *m)
@@ -154,8 +156,9 @@ static void merger_release(merger *m)
 /* ---- progress: each phase has a share of the stage's span (its share
  * of the time on a 1.6M-vertex mesh and a smooth f) and reports at its
  * start and every so many steps inside: 2^16 for the steps that merge or
- * build heaps (0.1-0.4 us each), 2^18 for plain passes over triangles or
- * edges (10-30 ns each), so that a cancellation is noticed within tens of
+ * build heaps (0.1-0.4 us each; in the merging loops a heap pop is a step
+ * too), 2^18 for plain passes over triangles or edges (10-30 ns each), so
+ * that a cancellation is noticed within tens of
  * milliseconds whatever the mesh size, at about a hundred reports a
  * second. The number of reports depends on the mesh and f alone, never
  * on timing. */
@@ -172,6 +175,17 @@ static const double phase_start[PHASE_COUNT + 1] = {0,    0.06, 0.28, 0.8,
 static int due(size_t i, unsigned shift)
 {
     return (i & (((size_t)1 << shift) - 1)) == 0 && i > 0;
+}
+
+/* The same for the merging loops, whose steps are their iterations plus
+ * the heap pops they cause (a merge late in the queue can pop thousands
+ * of interior edges): due when steps reach *next, which then moves on. */
+static int due_steps(size_t steps, size_t *next)
+{
+    if (steps < *next)
+        return 0;
+    *next = steps + ((size_t)1 << HEAVY);
+    return 1;
 }
 
 /* Reports the fraction i / n of the current phase. */
@@ -361,8 +375,10 @@ static int edge_interior(merger *m, uint32_t e, uint32_t root)
 static uint32_t settle(merger *m, uint32_t root)
 {
     uint32_t h = m->tri[root].heap;
-    while (h != NIL && edge_interior(m, (uint32_t)node_at(m, h)->key, root))
+    while (h != NIL && edge_interior(m, (uint32_t)node_at(m, h)->key, root)) {
         h = heap_pop(m, h);
+        m->pops++;
+    }
     m->tri[root].heap = h;
     return h;
 }
@@ -540,11 +556,12 @@ static phks_status merger_init(merger *m, const phks_mesh *mesh, const double *f
 static phks_status merge_zero_persistence(merger *m, size_t n_t, size_t *kept,
                                           size_t *merges)
 {
-    size_t k = 0;
+    size_t k = 0, start = m->pops, next = (size_t)1 << HEAVY;
     *merges = 0;
     phks_status st = phase(m, PHASE_SWEEP, 0, 1);
     for (size_t i = 0; st == PHKS_OK && i < n_t; i++) {
-        if (due(i, HEAVY) && (st = report(m, i, n_t)) != PHKS_OK)
+        if (due_steps(i + m->pops - start, &next) &&
+            (st = report(m, i, n_t)) != PHKS_OK)
             break;
         uint32_t t = m->order[i]; /* a root: not merged yet */
         uint32_t h = settle(m, t);
@@ -833,12 +850,14 @@ phks_status phks_persistence_run(const phks_mesh *mesh, const double *f,
     /* At least kept - max_count merges follow (more with a threshold):
      * the phase's fraction is measured against that. */
     size_t queued = 0, expected = kept > max_count ? kept - max_count : 1;
+    size_t start = m.pops, next = (size_t)1 << HEAVY;
     while (st == PHKS_OK && least_is_paired(&m) &&
            (m.queue[0].p <= threshold || regions > max_count)) {
-        if (due(++queued, HEAVY) &&
+        if (due_steps(queued + m.pops - start, &next) &&
             (st = report(&m, queued, expected)) != PHKS_OK)
             break;
         queue_merge_least(&m);
+        queued++;
         regions--;
     }
     /* Here the segmentation is taken. More regions than max_count remain
