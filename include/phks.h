@@ -204,10 +204,11 @@ typedef enum phks_stage {
 /* Called from the thread that called the long-running function, with the
  * fraction of the current stage done (0..1). Return 0 to continue, non-zero
  * to cancel: the function then returns PHKS_ERROR_CANCELLED promptly, with
- * everything it made freed. Every stage reports many times a second on a
- * million vertices (the eigen-solver between operator applications and
- * its dense steps); docs/benchmarks.md has the longest silences and the
- * latency of a cancellation measured on a 1.6M-vertex mesh. With
+ * everything it made freed. Every stage reports several times a second
+ * or more on a million vertices (the eigen-solver between operator
+ * applications and between its dense steps, a few tenths of a second
+ * each); docs/benchmarks.md has the longest silences and the latency of a
+ * cancellation measured on a 1.6M-vertex mesh. With
  * HKS-simp, PHKS_STAGE_OPERATOR covers choosing the samples and their
  * operator, and PHKS_STAGE_HKS the extension to every vertex.
  * PHKS_STAGE_PERSISTENCE covers the boundary margin, the region merging
@@ -462,9 +463,10 @@ typedef struct phks_maximum {
  * a maximum breaks ties in f by the larger index.
  * Errors: PHKS_ERROR_INVALID_ARGUMENT (NULL, max_count 0, negative or NaN
  * threshold), PHKS_ERROR_NON_FINITE (in f), PHKS_ERROR_OUT_OF_MEMORY.
- * No progress reports and no cancellation here: a mesh of 3.2 million
- * triangles takes about 2 s (white noise, with its many maxima, 4-5 s).
- * phks_signature_compute reports progress inside this same computation.
+ * No progress reports and no cancellation here: on 3.2 million triangles
+ * it takes 1-2 s for a smooth f, several seconds for white noise (many
+ * maxima). phks_signature_compute reports progress inside this same
+ * computation.
  * Thread-safe. */
 PHKS_API phks_status phks_persistent_maxima(const phks_mesh *mesh,
                                             const double *f, size_t max_count,
