@@ -401,9 +401,12 @@ static INLINE double entry_score(const double *q, size_t nq, size_t L,
 
 /* The same code compiled twice on x86-64 with GCC, and picked at load time
  * by the CPU: AVX2 does four lanes per instruction instead of two. Both
- * give identical results (no multiplications, so no fused operations). */
+ * give identical results (no multiplications, so no fused operations).
+ * Not under ThreadSanitizer: the dynamic loader runs the picker (an ifunc
+ * resolver) before the sanitizer's runtime is ready, and its instrumented
+ * entry crashes every program linked with the library at start-up. */
 #if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && \
-    defined(__linux__)
+    defined(__linux__) && !defined(__SANITIZE_THREAD__)
 #define SCAN_CLONES __attribute__((target_clones("avx2", "default")))
 #else
 #define SCAN_CLONES
