@@ -20,6 +20,7 @@
 #include <string.h>
 #include <sys/resource.h>
 #include <time.h>
+#include <unistd.h>
 #include <zlib.h>
 
 /* ------------------------------------------------------------- helpers */
@@ -61,6 +62,80 @@ static size_t probe_stop(void)
 {
     phks_set_allocator(NULL);
     return largest_request;
+}
+
+/* An allocator that counts the bytes the library holds and their peak:
+ * each block carries its size in a header. Every block must be freed
+ * before meter_stop(), as the header is foreign to free(). */
+#define METER_HEADER 16 /* keeps malloc's alignment */
+static size_t meter_live, meter_peak;
+
+static void *meter_keep(unsigned char *base, size_t size)
+{
+    memcpy(base, &size, sizeof size);
+    meter_live += size;
+    if (meter_live > meter_peak)
+        meter_peak = meter_live;
+    return base + METER_HEADER;
+}
+
+static size_t meter_size(void *ptr)
+{
+    size_t size;
+    memcpy(&size, (unsigned char *)ptr - METER_HEADER, sizeof size);
+    return size;
+}
+
+static void *meter_malloc(void *user, size_t size)
+{
+    (void)user;
+    unsigned char *base =
+        size <= SIZE_MAX - METER_HEADER ? malloc(size + METER_HEADER) : NULL;
+    return base ? meter_keep(base, size) : NULL;
+}
+
+/* phks_realloc passes NULL on to malloc_fn: ptr is a block of ours. */
+static void *meter_realloc(void *user, void *ptr, size_t size)
+{
+    (void)user;
+    size_t old = meter_size(ptr);
+    unsigned char *base =
+        size <= SIZE_MAX - METER_HEADER
+            ? realloc((unsigned char *)ptr - METER_HEADER, size + METER_HEADER)
+            : NULL;
+    if (!base)
+        return NULL;
+    meter_live -= old;
+    return meter_keep(base, size);
+}
+
+static void meter_free(void *user, void *ptr)
+{
+    (void)user;
+    if (!ptr)
+        return;
+    meter_live -= meter_size(ptr);
+    free((unsigned char *)ptr - METER_HEADER);
+}
+
+static void meter_start(void)
+{
+    static const phks_allocator meter = {meter_malloc, meter_realloc,
+                                         meter_free, NULL};
+    meter_live = meter_peak = 0;
+    ck_assert_int_eq(phks_set_allocator(&meter), PHKS_OK);
+}
+
+/* What loading gzip data holds beside the inflated bytes: zlib's state
+ * (7 KiB) and window (32 KiB), and the readers' first small buffers. */
+#define GZIP_OVERHEAD ((size_t)64 << 10)
+
+/* The peak; fails if a block is still held. */
+static size_t meter_stop(void)
+{
+    phks_set_allocator(NULL);
+    ck_assert_uint_eq(meter_live, 0);
+    return meter_peak;
 }
 
 /* Loads an exact-size heap copy of data; on failure checks that no mesh
@@ -625,13 +700,20 @@ START_TEST(gzip_bomb)
                  {PHKS_FORMAT_STL, PHKS_ERROR_NO_TRIANGLES}};
     long grown = 0;
     double took[2];
+    size_t peak[2];
     for (size_t i = 0; i < sizeof cases / sizeof *cases; i++) {
         phks_mesh *mesh;
         long rss0 = max_rss_kib();
+        meter_start();
         t0 = cpu_now();
         ck_assert_int_eq(load(bomb.p, bomb.n, cases[i].format, &mesh),
                          cases[i].status);
         took[i] = cpu_now() - t0;
+        /* the library held the inflated bytes and little more */
+        peak[i] = meter_stop();
+        ck_assert_msg(peak[i] <= zeros + 1 + GZIP_OVERHEAD,
+                      "format %d: the library held %zu bytes at its peak",
+                      (int)cases[i].format, peak[i]);
         ck_assert_msg(took[i] < 10, "format %d: %.1f s", (int)cases[i].format,
                       took[i]);
         /* only the first load: ASan holds freed blocks back for a while */
@@ -639,8 +721,9 @@ START_TEST(gzip_bomb)
             grown = max_rss_kib() - rss0;
     }
     printf("gzip_bomb: %zu bytes made in %.2f s, refused in %.2f s and "
-           "%.2f s (CPU); peak memory grew %ld MiB\n",
-           bomb.n, made, took[0], took[1], grown / 1024);
+           "%.2f s (CPU), holding at most %zu and %zu bytes; peak memory "
+           "grew %ld MiB\n",
+           bomb.n, made, took[0], took[1], peak[0], peak[1], grown / 1024);
     /* the inflated 100 MiB, plus a margin */
     ck_assert_msg(grown < 160 * 1024, "peak memory grew %ld KiB", grown);
     free(bomb.p);
@@ -743,10 +826,14 @@ START_TEST(gzip_limit)
     ck_assert_uint_le(probe_stop(), limit + 1);
     free(over.p);
 
-    /* a bomb of 8 times the limit, as one member and as 64 */
+    /* a bomb of 8 times the limit, as one member and as 64; the bytes the
+     * library holds at once stay within the limit (plus zlib's) */
     bytes bomb = gzip_zeros(8 * limit);
+    meter_start();
     expect_load_fail("bomb", bomb.p, bomb.n, PHKS_FORMAT_OFF,
                      PHKS_ERROR_TOO_LARGE, "inflates");
+    size_t peak_bomb = meter_stop();
+    ck_assert_uint_le(peak_bomb, limit + 1 + GZIP_OVERHEAD);
     bytes member = gzip_zeros(limit / 4);
     bytes many = {0};
     for (int i = 0; i < 64; i++)
@@ -755,6 +842,28 @@ START_TEST(gzip_limit)
     expect_load_fail("members", many.p, many.n, PHKS_FORMAT_AUTO,
                      PHKS_ERROR_TOO_LARGE, "inflates");
     ck_assert_uint_le(probe_stop(), limit + 1);
+    meter_start();
+    expect_load_fail("members", many.p, many.n, PHKS_FORMAT_AUTO,
+                     PHKS_ERROR_TOO_LARGE, "inflates");
+    size_t peak_members = meter_stop();
+    ck_assert_uint_le(peak_members, limit + 1 + GZIP_OVERHEAD);
+    /* from a file, the compressed bytes are held too while they inflate */
+    char path[] = "/tmp/phks-bomb-XXXXXX";
+    int fd = mkstemp(path);
+    ck_assert_int_ge(fd, 0);
+    ck_assert(write(fd, many.p, many.n) == (ssize_t)many.n);
+    ck_assert_int_eq(close(fd), 0);
+    phks_mesh *from_file = (phks_mesh *)&many;
+    meter_start();
+    ck_assert_int_eq(phks_mesh_load(path, &from_file), PHKS_ERROR_TOO_LARGE);
+    size_t peak_file = meter_stop();
+    ck_assert_ptr_null(from_file);
+    ck_assert_int_eq(unlink(path), 0);
+    ck_assert_uint_le(peak_file, limit + 1 + many.n + GZIP_OVERHEAD);
+    printf("gzip_limit: %zu bytes allowed; the library held at most %zu "
+           "(bomb), %zu (64 members) and %zu (64 members, %zu bytes, from a "
+           "file)\n",
+           limit, peak_bomb, peak_members, peak_file, many.n);
     double took = cpu_now() - t0;
     ck_assert_msg(took < 10, "%.1f s", took);
     long grown = max_rss_kib() - rss0;
