@@ -652,8 +652,10 @@ PHKS_API phks_status phks_db_count(phks_db *db, size_t *count);
 
 /* Up to capacity ids of entries, ascending, starting after after_id (0 for
  * the first page), into ids; *count gets how many were written. Pages
- * through a database of any size. Errors: PHKS_ERROR_INVALID_ARGUMENT,
- * PHKS_ERROR_IO. */
+ * through a database of any size. Ids start at 1: a file holding a lower
+ * one (only another program can write it) gives PHKS_ERROR_CORRUPT here,
+ * in phks_db_count and in phks_db_query. Errors:
+ * PHKS_ERROR_INVALID_ARGUMENT, PHKS_ERROR_IO. */
 PHKS_API phks_status phks_db_list(phks_db *db, int64_t after_id,
                                   int64_t *ids, size_t capacity,
                                   size_t *count);

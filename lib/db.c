@@ -472,6 +472,18 @@ void phks_db_close(phks_db *db)
 
 /* ---- the cache */
 
+/* Ids start at 1: SQLite's AUTOINCREMENT never gives less, but another
+ * program can write any id. Count, list (whose first page starts after
+ * id 0) and query would disagree about such a row, so all three refuse
+ * the file as damaged; get and remove still reach the row by its id. */
+static phks_status id_below_one(const phks_db *db, int64_t id)
+{
+    return phks_fail(PHKS_ERROR_CORRUPT,
+                     "%s: entry id %lld: ids start at 1 (the row was "
+                     "written by another program)",
+                     db->path, (long long)id);
+}
+
 static phks_status data_version(phks_db *db, int64_t *version)
 {
     int rc = sqlite3_step(db->version);
@@ -538,8 +550,9 @@ static phks_status reload(phks_db *db)
         if (st == PHKS_ERROR_OUT_OF_MEMORY)
             st = phks_fail_oom("database cache");
         else if (st == PHKS_ERROR_INVALID_ARGUMENT)
-            st = phks_fail(PHKS_ERROR_CORRUPT, "%s: %s is out of place",
-                           db->path, what);
+            st = id < 1 ? id_below_one(db, id)
+                        : phks_fail(PHKS_ERROR_CORRUPT,
+                                    "%s: %s is out of place", db->path, what);
         phks_signature_free(sig);
     }
     sqlite3_finalize(stmt);
@@ -809,7 +822,25 @@ phks_status phks_db_count(phks_db *db, size_t *count)
                          "phks_db_count: NULL argument");
     int64_t n = 0;
     pthread_mutex_lock(&db->lock);
-    phks_status st = query_int(db, "SELECT count(*) FROM entries", &n);
+    sqlite3_stmt *stmt;
+    /* One statement, one snapshot; each subquery is a single b-tree
+     * operation (count, and the first rowid). */
+    phks_status st = prepare(db,
+                             "SELECT (SELECT count(*) FROM entries),"
+                             " (SELECT min(id) FROM entries)",
+                             &stmt);
+    if (st == PHKS_OK) {
+        int rc = sqlite3_step(stmt);
+        if (rc != SQLITE_ROW)
+            st = sql_fail(db, rc == SQLITE_DONE ? SQLITE_CORRUPT : rc,
+                          "phks_db_count");
+        else if (sqlite3_column_type(stmt, 1) != SQLITE_NULL &&
+                 sqlite3_column_int64(stmt, 1) < 1)
+            st = id_below_one(db, sqlite3_column_int64(stmt, 1));
+        else
+            n = sqlite3_column_int64(stmt, 0);
+        sqlite3_finalize(stmt);
+    }
     pthread_mutex_unlock(&db->lock);
     if (st == PHKS_OK)
         *count = (size_t)n;
@@ -829,9 +860,13 @@ phks_status phks_db_list(phks_db *db, int64_t after_id, int64_t *ids,
     pthread_mutex_lock(&db->lock);
     sqlite3_stmt *stmt;
     size_t n = 0;
+    /* A first page (after_id below 1) starts at the very first row, so
+     * that it meets any id below 1. */
     phks_status st = prepare(db,
-                             "SELECT id FROM entries WHERE id > ?1 "
-                             "ORDER BY id LIMIT ?2",
+                             after_id < 1
+                                 ? "SELECT id FROM entries ORDER BY id LIMIT ?2"
+                                 : "SELECT id FROM entries WHERE id > ?1 "
+                                   "ORDER BY id LIMIT ?2",
                              &stmt);
     if (st == PHKS_OK) {
         sqlite3_bind_int64(stmt, 1, after_id);
@@ -843,7 +878,9 @@ phks_status phks_db_list(phks_db *db, int64_t after_id, int64_t *ids,
         while (st == PHKS_OK && n < capacity &&
                (rc = sqlite3_step(stmt)) == SQLITE_ROW) {
             int64_t id = sqlite3_column_int64(stmt, 0);
-            if (id <= (n ? ids[n - 1] : after_id))
+            if (id < 1)
+                st = id_below_one(db, id);
+            else if (id <= (n ? ids[n - 1] : after_id))
                 st = phks_fail(PHKS_ERROR_CORRUPT,
                                "phks_db_list: ids out of order, the file is "
                                "damaged");

@@ -109,8 +109,8 @@ phks_status phks_db_cache_append(phks_db_cache *c, int64_t id,
                                  const phks_signature *sig)
 {
     size_t length = c->count ? c->length : sig->length;
-    if ((c->count && id <= c->ids[c->count - 1]) || sig->count == 0 ||
-        sig->count > UINT32_MAX || sig->length != length)
+    if (id < 1 || (c->count && id <= c->ids[c->count - 1]) ||
+        sig->count == 0 || sig->count > UINT32_MAX || sig->length != length)
         return PHKS_ERROR_INVALID_ARGUMENT;
     size_t lanes = phks_db_padded(sig->count);
     if (length && lanes > SIZE_MAX / length)

@@ -313,8 +313,8 @@ void phks_db_cache_init(phks_db_cache *cache);
 void phks_db_cache_release(phks_db_cache *cache);
 /* Appends an entry whose id is above every id held, with vectors of the
  * same length as the others. Returns PHKS_ERROR_OUT_OF_MEMORY (the cache
- * is left as it was) or PHKS_ERROR_INVALID_ARGUMENT (id out of order,
- * other length, no features) without setting a message: the caller,
+ * is left as it was) or PHKS_ERROR_INVALID_ARGUMENT (id below 1 or out of
+ * order, other length, no features) without setting a message: the caller,
  * whose own call may still succeed, decides what to report. */
 phks_status phks_db_cache_append(phks_db_cache *cache, int64_t id,
                                  const char *name, const char *label,

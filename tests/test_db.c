@@ -859,6 +859,82 @@ START_TEST(killed_writer_loses_no_commit)
 }
 END_TEST
 
+/* ---- ids below 1 */
+
+/* libphks numbers entries from 1 (AUTOINCREMENT never gives less), but
+ * another program can write any id into the file. Count, list (whose
+ * first page starts after id 0) and query would then disagree about the
+ * entries; all three refuse the file as damaged instead, until the rows
+ * are gone. get and remove still reach them by id. */
+START_TEST(ids_below_one_are_refused)
+{
+    char *dir = temp_dir(), *path = in_dir(dir, "ids.db");
+    uint64_t seed = 21;
+    phks_signature *sig = synthetic(6, &seed, false);
+    phks_db *db;
+    ck_assert_int_eq(phks_db_open(path, PHKS_DB_CREATE, &db), PHKS_OK);
+    int64_t id;
+    ck_assert_int_eq(phks_db_add(db, "one", NULL, sig, &id), PHKS_OK);
+    ck_assert_int_eq(id, 1);
+    phks_hit hits[4];
+    size_t count;
+    int64_t ids[4];
+    ck_assert_int_eq(phks_db_query(db, sig, 4, hits, &count), PHKS_OK);
+    static const char *bad[] = {"0", "-5", "-9223372036854775808"};
+    for (size_t b = 0; b < sizeof bad / sizeof *bad; b++) {
+        char insert[256], delete[96];
+        snprintf(insert, sizeof insert,
+                 "INSERT INTO entries (id, name, label, signature) "
+                 "SELECT %s, 'other', NULL, signature FROM entries "
+                 "WHERE id = 1",
+                 bad[b]);
+        snprintf(delete, sizeof delete, "DELETE FROM entries WHERE id = %s",
+                 bad[b]);
+        free(sql(path, insert));
+        count = 99;
+        ck_assert_int_eq(phks_db_count(db, &count), PHKS_ERROR_CORRUPT);
+        ck_assert_uint_eq(count, 0);
+        ck_assert_ptr_nonnull(strstr(phks_last_error_message(), "ids.db"));
+        ck_assert_int_eq(phks_db_list(db, 0, ids, 4, &count),
+                         PHKS_ERROR_CORRUPT);
+        ck_assert_int_eq(phks_db_list(db, -10, ids, 4, &count),
+                         PHKS_ERROR_CORRUPT);
+        ck_assert_int_eq(phks_db_query(db, sig, 4, hits, &count),
+                         PHKS_ERROR_CORRUPT);
+        /* a handle opened now sees the same */
+        phks_db *other;
+        ck_assert_int_eq(phks_db_open(path, PHKS_DB_READONLY, &other), PHKS_OK);
+        ck_assert_int_eq(phks_db_count(other, &count), PHKS_ERROR_CORRUPT);
+        ck_assert_int_eq(phks_db_query(other, sig, 4, hits, &count),
+                         PHKS_ERROR_CORRUPT);
+        phks_db_close(other);
+        /* pages after a valid id are unaffected */
+        ck_assert_int_eq(phks_db_list(db, 1, ids, 4, &count), PHKS_OK);
+        ck_assert_uint_eq(count, 0);
+        free(sql(path, delete));
+        ck_assert_int_eq(phks_db_count(db, &count), PHKS_OK);
+        ck_assert_uint_eq(count, 1);
+        ck_assert_int_eq(phks_db_list(db, 0, ids, 4, &count), PHKS_OK);
+        ck_assert_uint_eq(count, 1);
+        ck_assert_int_eq(ids[0], 1);
+        ck_assert_int_eq(phks_db_query(db, sig, 4, hits, &count), PHKS_OK);
+        ck_assert_uint_eq(count, 1);
+        ck_assert_int_eq(hits[0].id, 1);
+    }
+    /* removed by id, the file is whole again */
+    free(sql(path, "INSERT INTO entries (id, name, label, signature) "
+                   "SELECT -3, 'other', NULL, signature FROM entries"));
+    ck_assert_int_eq(phks_db_count(db, &count), PHKS_ERROR_CORRUPT);
+    ck_assert_int_eq(phks_db_remove(db, -3), PHKS_OK);
+    ck_assert_int_eq(phks_db_count(db, &count), PHKS_OK);
+    ck_assert_uint_eq(count, 1);
+    phks_db_close(db);
+    phks_signature_free(sig);
+    free(path);
+    remove_dir(dir);
+}
+END_TEST
+
 /* ---- threads */
 
 #define QUERY_THREADS 4
@@ -1144,6 +1220,7 @@ int main(void)
     tcase_add_test(c, read_only_handles_refuse_writes);
     tcase_add_test(c, two_handles_see_each_others_commits);
     tcase_add_test(c, killed_writer_loses_no_commit);
+    tcase_add_test(c, ids_below_one_are_refused);
     tcase_add_test(c, concurrent_queries_agree);
     tcase_add_test(c, allocation_failures_are_clean);
     tcase_add_test(c, bad_arguments_are_refused);
