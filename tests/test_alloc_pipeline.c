@@ -13,13 +13,14 @@
  * result, bit for bit.
  *
  * Steps: loading each format from a file and from memory (OFF, PLY, OBJ,
- * ascii and binary STL, gzip-compressed OFF in two members); spectra by the exact path
- * (dense LAPACK and block Lanczos) and by HKS-simp, with the HKS;
- * signatures from a mesh and from a spectrum; signature decode and
- * encode; and a database sequence (open, add, add_batch, query, get,
- * remove, query, add) on ":memory:" and on a file, where after every
- * failing call the database must answer count, list and a query exactly
- * as before that call.
+ * ascii and binary STL, gzip-compressed OFF in two members); spectra by
+ * the exact path (dense LAPACK, block Lanczos, ARPACK) and by HKS-simp;
+ * signatures from a mesh and from a spectrum (exact and HKS-simp, which
+ * extends the HKS to every vertex); signature decode and encode; and a
+ * database sequence (open, add, add_batch, query, get, remove, query,
+ * add, and on a file close, open and the first query, which reads every
+ * entry) on ":memory:" and on a file, where after every failing call the
+ * database must answer count, list and a query exactly as before it.
  *
  * SQLite allocates through its own allocator, not through
  * phks_set_allocator(): the database steps cover the library's own
@@ -28,8 +29,9 @@
  * The counting allocator is not thread-safe and the i-th allocation must
  * be the same one on every run: everything runs on one thread (options
  * threads = 1; database queries of fewer than 4096 entries scan on the
- * calling thread). The meshes are small (162 vertices, 24 eigenpairs) so
- * the whole sweep stays within seconds, also under AddressSanitizer.
+ * calling thread). The meshes are small (162 vertices, 24 eigenpairs;
+ * 408 and 8 for the iterative solvers, which need room) so that the
+ * sweep takes seconds, and well under a minute under AddressSanitizer.
  */
 #include "testutil.h"
 #include "soup.h"
@@ -171,8 +173,9 @@ static long sweep(const char *what, step_fn fn, void *ctx, long min_calls)
     /* Failures that go unseen are those a call can do without (a
      * shrinking realloc); with every allocation from one on failing, no
      * run can succeed. */
-    REQUIRE_MSG(failed[0] >= total - total / 4, "%s: %ld of %ld failures unseen",
-                what, total - failed[0], total);
+    REQUIRE_MSG(failed[0] >= total - total / 4,
+                "%s: %ld of %ld failures unseen", what, total - failed[0],
+                total);
     REQUIRE_MSG(failed[1] == total, "%s: %ld runs succeeded with every "
                 "allocation from one on failing", what, total - failed[1]);
     free(ref.p);
