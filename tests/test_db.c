@@ -686,6 +686,104 @@ START_TEST(foreign_newer_and_damaged_files_are_refused)
 }
 END_TEST
 
+/* What a handle answers: count, every id, and the top 10 of a query (each
+ * CORRUPT or OK). */
+typedef struct answers {
+    phks_status count_st, list_st, query_st;
+    size_t count, listed, hits;
+    int64_t ids[64];
+    phks_hit top[10];
+} answers;
+
+static void ask(phks_db *db, const phks_signature *q, answers *a)
+{
+    memset(a, 0, sizeof *a);
+    a->count_st = phks_db_count(db, &a->count);
+    a->list_st = phks_db_list(db, 0, a->ids, 64, &a->listed);
+    a->query_st = phks_db_query(db, q, 10, a->top, &a->hits);
+}
+
+static void same_or_corrupt(phks_status st, bool same, const char *what,
+                            size_t page)
+{
+    ck_assert_msg(st == PHKS_OK || st == PHKS_ERROR_CORRUPT,
+                  "page %zu: %s gave %s", page, what, phks_status_string(st));
+    ck_assert_msg(st != PHKS_OK || same, "page %zu: %s answered differently",
+                  page, what);
+    ck_assert_msg(st == PHKS_OK || phks_last_error_message()[0], "page %zu: %s "
+                  "without a message", page, what);
+}
+
+/* Each page of a database file in turn overwritten with noise, as a bad
+ * disk sector would: opening and every read either say CORRUPT or give
+ * exactly the undamaged file's answers, never another answer, never a
+ * crash. */
+START_TEST(every_damaged_page_is_refused_or_harmless)
+{
+    char *dir = temp_dir();
+    char *good = in_dir(dir, "good.db"), *bad = in_dir(dir, "bad.db");
+    uint64_t seed = 77;
+    phks_db *db;
+    ck_assert_int_eq(phks_db_open(good, PHKS_DB_CREATE, &db), PHKS_OK);
+    for (int i = 0; i < 60; i++) {
+        phks_signature *sig = synthetic(15, &seed, false);
+        char name[32];
+        snprintf(name, sizeof name, "entry %d", i);
+        ck_assert_int_eq(phks_db_add(db, name, "label", sig, NULL), PHKS_OK);
+        phks_signature_free(sig);
+    }
+    phks_signature *q = synthetic(15, &seed, false);
+    answers want;
+    ask(db, q, &want);
+    ck_assert_int_eq(want.query_st, PHKS_OK);
+    ck_assert_uint_eq(want.listed, 60);
+    phks_db_close(db); /* the last connection folds the WAL into the file */
+
+    FILE *f = fopen(good, "rb");
+    ck_assert_ptr_nonnull(f);
+    unsigned char *file = malloc(1 << 20), *copy = malloc(1 << 20);
+    size_t size = fread(file, 1, 1 << 20, f);
+    fclose(f);
+    size_t page = (size_t)file[16] << 8 | file[17];
+    ck_assert_uint_ge(size / page, 40); /* the entries span many pages */
+    size_t refused = 0;
+    for (size_t p = 0; p < size / page; p++) {
+        memcpy(copy, file, size);
+        for (size_t b = 0; b < page; b++)
+            copy[p * page + b] = (unsigned char)(test_random(&seed) * 256);
+        write_file(bad, copy, size);
+        phks_status st = phks_db_open(bad, 0, &db);
+        same_or_corrupt(st, true, "open", p + 1);
+        if (st != PHKS_OK) {
+            ck_assert_ptr_null(db);
+            refused++;
+            continue;
+        }
+        answers got;
+        ask(db, q, &got);
+        same_or_corrupt(got.count_st, got.count == want.count, "count", p + 1);
+        same_or_corrupt(got.list_st,
+                        got.listed == want.listed &&
+                            !memcmp(got.ids, want.ids, sizeof want.ids),
+                        "list", p + 1);
+        same_or_corrupt(got.query_st,
+                        got.hits == want.hits &&
+                            !memcmp(got.top, want.top, sizeof want.top),
+                        "query", p + 1);
+        refused += got.count_st || got.list_st || got.query_st;
+        phks_db_close(db);
+    }
+    /* Most pages hold entries, so most damage must be seen. */
+    ck_assert_uint_ge(refused, size / page / 2);
+    free(file);
+    free(copy);
+    phks_signature_free(q);
+    free(good);
+    free(bad);
+    remove_dir(dir);
+}
+END_TEST
+
 START_TEST(read_only_handles_refuse_writes)
 {
     char *dir = temp_dir(), *path = in_dir(dir, "ro.db");
@@ -1217,6 +1315,7 @@ int main(void)
     tcase_add_test(c, other_options_are_refused);
     tcase_add_test(c, options_set_by_another_handle_are_refused);
     tcase_add_test(c, foreign_newer_and_damaged_files_are_refused);
+    tcase_add_test(c, every_damaged_page_is_refused_or_harmless);
     tcase_add_test(c, read_only_handles_refuse_writes);
     tcase_add_test(c, two_handles_see_each_others_commits);
     tcase_add_test(c, killed_writer_loses_no_commit);
