@@ -4,7 +4,7 @@
  * measures exactly what an application sees through the public API.
  *
  *   bench-stages [--solver auto|lanczos|arpack|dense] [--cutoff C]
- *                [--simplify-above N] [--simplify-target N]
+ *                [--threads N] [--simplify-above N] [--simplify-target N]
  *                [--decimate N] [--trace S] [--cancel-at T1,T2,...] MESH...
  *
  * Each mesh runs in its own child process so that the peak resident
@@ -12,7 +12,10 @@
  * longest time between two progress reports (the call and the return
  * count as reports, so a silent start or end shows): how long a cancellation
  * may wait. --trace S also lists every gap longer than S seconds with the
- * reports around it (stage and fraction), to find the silent code.
+ * reports around it (stage and fraction), to find the silent code. The
+ * "cpu" columns are the processor time (user + system, all threads, the
+ * BLAS's included) of the operator and eigen stages and of the whole
+ * computation: on a shared machine they vary far less than wall times.
  *
  * --cancel-at T1,T2,... measures cancellation instead: for each T, a
  * child runs the signature again and asks to cancel T seconds after the
@@ -62,8 +65,17 @@ typedef struct {
     double from_fraction, to_fraction;
 } silence;
 
+/* Processor time of the whole process (every thread), in seconds. */
+static double cpu_now(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
 typedef struct {
     double start[PHKS_STAGE_COUNT], end[PHKS_STAGE_COUNT];
+    double cpu_start[PHKS_STAGE_COUNT];
     double last, gap; /* the longest time between two reports: how long a
                          cancellation can wait */
     int last_stage;
@@ -98,8 +110,10 @@ static int on_progress(void *user, phks_stage stage, double fraction)
 {
     stage_times *t = user;
     double x = now();
-    if (t->start[stage] == 0)
+    if (t->start[stage] == 0) {
         t->start[stage] = x;
+        t->cpu_start[stage] = cpu_now();
+    }
     t->end[stage] = x;
     note_gap(t, x, (int)stage, fraction);
     if (t->cancel_stage >= 0 && t->start[t->cancel_stage] > 0 && t->cancel_at == 0)
@@ -202,7 +216,7 @@ static int run(const char *path, const phks_options *base, size_t decimate_to,
     double t0 = now();
     phks_mesh *mesh;
     phks_status st = phks_mesh_load(path, &mesh);
-    double t1 = now();
+    double t1 = now(), c1 = cpu_now();
     bool clean_peak = true;
     double load = t1 - t0;
     if (st == PHKS_OK && decimate_to) {
@@ -220,6 +234,7 @@ static int run(const char *path, const phks_options *base, size_t decimate_to,
     phks_signature *sig = NULL;
     if (st == PHKS_OK) {
         t1 = t.last = now();
+        c1 = cpu_now();
         if (cancel.seconds > 0 && cancel.stage < 0)
             t.cancel_at = t1 + cancel.seconds;
         else if (cancel.seconds > 0) {
@@ -228,7 +243,7 @@ static int run(const char *path, const phks_options *base, size_t decimate_to,
         }
         st = phks_signature_compute(mesh, &opt, &sig);
     }
-    double t2 = now();
+    double t2 = now(), c2 = cpu_now();
     if (cancel.seconds > 0) {
         char when[32];
         snprintf(when, sizeof when, "%s%s%.2f",
@@ -258,8 +273,12 @@ static int run(const char *path, const phks_options *base, size_t decimate_to,
         double end = s + 1 < PHKS_STAGE_COUNT ? t.start[s + 1] : t2;
         printf(" %8.3f", end - t.start[s]);
     }
-    printf(" %8.3f %6.2f %8.0f%s\n", t2 - t1, t.gap, peak_mb(),
+    printf(" %8.3f %6.2f %8.0f%s", t2 - t1, t.gap, peak_mb(),
            clean_peak ? "" : "*");
+    /* processor time of the operator and eigen stages, and in all */
+    printf(" %7.3f %7.3f %7.3f\n",
+           t.cpu_start[PHKS_STAGE_EIGEN] - t.cpu_start[PHKS_STAGE_OPERATOR],
+           t.cpu_start[PHKS_STAGE_HKS] - t.cpu_start[PHKS_STAGE_EIGEN], c2 - c1);
     for (int i = 0; i < t.silence_count; i++) {
         const silence *g = &t.silences[i];
         printf("    silent %6.2f s from %s %.4f to %s %.4f\n", g->seconds,
@@ -289,6 +308,8 @@ int main(int argc, char **argv)
                                                     : PHKS_SOLVER_AUTO;
         else if (strcmp(argv[first], "--cutoff") == 0)
             opt.cutoff = atof(v);
+        else if (strcmp(argv[first], "--threads") == 0)
+            opt.threads = (uint32_t)strtoul(v, NULL, 10);
         else if (strcmp(argv[first], "--simplify-above") == 0)
             opt.simplify_above = (uint32_t)strtoul(v, NULL, 10);
         else if (strcmp(argv[first], "--simplify-target") == 0)
@@ -302,7 +323,7 @@ int main(int argc, char **argv)
     }
     if (first >= argc) {
         fprintf(stderr, "usage: bench-stages [--solver S] [--cutoff C] "
-                        "[--simplify-above N] [--simplify-target N] "
+                        "[--threads N] [--simplify-above N] [--simplify-target N] "
                         "[--decimate N] [--trace S] [--cancel-at T1,T2,...] "
                         "MESH...\n");
         return 2;
@@ -338,9 +359,10 @@ int main(int argc, char **argv)
         printf("%-28s %8s %14s %9s %9s\n", "mesh", "vertices", "cancel at",
                "stage", "latency");
     } else {
-        printf("%-28s %8s %7s %8s %8s %8s %8s %8s %6s %8s\n", "mesh",
-               "vertices", "load", "operator", "eigen", "hks", "persist",
-               "total", "gap", "peak MB");
+        printf("%-28s %8s %7s %8s %8s %8s %8s %8s %6s %8s %7s %7s %7s\n",
+               "mesh", "vertices", "load", "operator", "eigen", "hks",
+               "persist", "total", "gap", "peak MB", "op cpu", "eig cpu",
+               "cpu");
     }
     int failures = 0;
     for (int i = first; i < argc; i++)
