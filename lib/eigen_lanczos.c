@@ -45,16 +45,7 @@
 #include <math.h>
 #include <string.h>
 
-#if defined(__GNUC__) && defined(__x86_64__)
-#include <immintrin.h>
-#define HAVE_AVX2_KERNEL 1
-#else
-#define HAVE_AVX2_KERNEL 0
-#endif
-
-#ifndef BLOCK
-#define BLOCK 16
-#endif
+#define BLOCK PHKS_PAIR_BLOCK
 /* A new direction this much smaller than its norm before projection is
  * numerically in the span of the basis already. */
 #define BREAKDOWN 1e-12
@@ -80,92 +71,19 @@
 
 /* ---------------------------------------------------------------- kernel */
 
-/* out = alpha * (B x) + gamma * x + beta * z on row-major n x BLOCK blocks
- * (z may be NULL). */
 typedef struct {
-    const phks_operator_matrix *op;
-    const double *x, *z;
-    double *out;
-    double alpha, gamma, beta;
-} poly_ctx;
-
-static void poly_rows_generic(void *ctx, size_t begin, size_t end)
-{
-    const poly_ctx *p = ctx;
-    const phks_operator_matrix *op = p->op;
-    for (size_t w = begin; w < end; w++) {
-        double acc[BLOCK] = {0};
-        for (size_t i = op->row_start[w]; i < op->row_start[w + 1]; i++) {
-            const double v = op->val[i];
-            const double *x = p->x + (size_t)op->col[i] * BLOCK;
-            for (size_t j = 0; j < BLOCK; j++)
-                acc[j] += v * x[j];
-        }
-        const double *xw = p->x + w * BLOCK;
-        double *o = p->out + w * BLOCK;
-        if (p->z) {
-            const double *zw = p->z + w * BLOCK;
-            for (size_t j = 0; j < BLOCK; j++)
-                o[j] = p->alpha * acc[j] + p->gamma * xw[j] + p->beta * zw[j];
-        } else {
-            for (size_t j = 0; j < BLOCK; j++)
-                o[j] = p->alpha * acc[j] + p->gamma * xw[j];
-        }
-    }
-}
-
-#if HAVE_AVX2_KERNEL
-__attribute__((target("avx2,fma"))) static void poly_rows_avx2(void *ctx,
-                                                                size_t begin,
-                                                                size_t end)
-{
-    const poly_ctx *p = ctx;
-    const phks_operator_matrix *op = p->op;
-    const __m256d alpha = _mm256_set1_pd(p->alpha), gamma = _mm256_set1_pd(p->gamma),
-                  beta = _mm256_set1_pd(p->beta);
-    for (size_t w = begin; w < end; w++) {
-        __m256d acc[BLOCK / 4];
-        for (int j = 0; j < BLOCK / 4; j++)
-            acc[j] = _mm256_setzero_pd();
-        const size_t last = op->row_start[w + 1];
-        for (size_t i = op->row_start[w]; i < last; i++) {
-            const __m256d v = _mm256_broadcast_sd(op->val + i);
-            const double *x = p->x + (size_t)op->col[i] * BLOCK;
-            for (int j = 0; j < BLOCK / 4; j++)
-                acc[j] = _mm256_fmadd_pd(v, _mm256_loadu_pd(x + 4 * j), acc[j]);
-        }
-        const double *xw = p->x + w * BLOCK;
-        double *o = p->out + w * BLOCK;
-        for (int j = 0; j < BLOCK / 4; j++) {
-            __m256d r = _mm256_fmadd_pd(gamma, _mm256_loadu_pd(xw + 4 * j),
-                                        _mm256_mul_pd(alpha, acc[j]));
-            if (p->z)
-                r = _mm256_fmadd_pd(beta, _mm256_loadu_pd(p->z + w * BLOCK + 4 * j), r);
-            _mm256_storeu_pd(o + 4 * j, r);
-        }
-    }
-}
-#endif
-
-typedef struct {
-    const phks_operator_matrix *op;
-    unsigned threads;
+    const phks_operator_pairs *pm;
     bool avx2;
     const phks_options *opt;
     double fraction;        /* progress reported between products */
 } engine;
 
+/* out = alpha * (B x) + gamma * x + beta * z on row-major n x BLOCK blocks
+ * (z may be NULL), in the pair matrix's numbering. */
 static void poly_step(const engine *e, const double *x, const double *z,
                       double *out, double alpha, double gamma, double beta)
 {
-    poly_ctx p = {e->op, x, z, out, alpha, gamma, beta};
-#if HAVE_AVX2_KERNEL
-    if (e->avx2) {
-        phks_parallel_for(e->op->n, e->threads, poly_rows_avx2, &p);
-        return;
-    }
-#endif
-    phks_parallel_for(e->op->n, e->threads, poly_rows_generic, &p);
+    phks_operator_pairs_poly(e->pm, e->avx2, x, z, out, alpha, gamma, beta);
 }
 
 /* The filter p(B) = T_d((c I - B) / e) (degree 1 with c = 0, e = 1: -B,
@@ -488,7 +406,7 @@ static phks_status step(lanczos *L, const run_ctx *rc, size_t m, double *r)
 static phks_status probe(engine *eng, const phks_options *opt, size_t k,
                          size_t target, double *lmax, double *cut)
 {
-    size_t n = eng->op->n, b = BLOCK;
+    size_t n = eng->pm->n, b = BLOCK;
     size_t steps = PROBE_STEPS;
     if ((steps + 1) * b > n - n % b)
         steps = (n - n % b) / b - 1;
@@ -615,12 +533,13 @@ done:
  * PHKS_ERROR_NO_CONVERGENCE (without a message) when the cap is hit, and
  * sets *cut_low when the cut turned out to lie below lambda_k. */
 static phks_status solve(engine *eng, const filter *f, size_t k,
-                         size_t guard, size_t cap, const phks_options *opt,
+                         size_t guard, size_t cap, double norm,
+                         const phks_options *opt,
                          double lo, double hi, double *values, double *vectors,
                          bool *cut_low)
 {
-    size_t n = eng->op->n, b = BLOCK, q = k + guard;
-    double norm = eng->op->norm_bound, tol = opt->tolerance * norm;
+    size_t n = eng->pm->n, b = BLOCK, q = k + guard;
+    double tol = opt->tolerance * norm;
     *cut_low = false;
     lanczos L = {.n = n, .k = k, .b = b, .cap = cap};
     phks_status st = allocate(&L, q + 4 * b);
@@ -718,6 +637,40 @@ static phks_status solve(engine *eng, const filter *f, size_t k,
     return st;
 }
 
+/* The filtered solves, then plain Lanczos when they do not converge;
+ * values and vectors in the pair matrix's numbering. */
+static phks_status solve_all(engine *eng, size_t k, size_t guard,
+                             size_t cap, double norm, const phks_options *opt,
+                             double *values, double *vectors)
+{
+    size_t b = BLOCK;
+    double lmax = 0, cut = 0;
+    bool cut_low = false;
+    phks_status st = probe(eng, opt, k, (size_t)((double)(k + guard) * CUT_MARGIN),
+                           &lmax, &cut);
+    if (st != PHKS_OK)
+        return st;
+    st = PHKS_ERROR_NO_CONVERGENCE;
+    for (int attempt = 0; attempt < 3 && cut > 0 && cut < lmax; attempt++) {
+        double d = round(FILTER_GROWTH / acosh((lmax + cut) / (lmax - cut)));
+        int degree = d < 2 ? 2 : d > MAX_DEGREE ? MAX_DEGREE : (int)d;
+        filter f = {degree, (lmax + cut) / 2, (lmax - cut) / 2};
+        size_t fcap = 3 * (k + guard) + 8 * b;
+        fcap = fcap < cap ? fcap : cap;
+        st = solve(eng, &f, k, guard, fcap, norm, opt, 0.02, 0.9, values,
+                   vectors, &cut_low);
+        if (st != PHKS_ERROR_NO_CONVERGENCE || !cut_low)
+            break;
+        cut = cut + 2 * (values[k - 1] - cut) + 0.05 * (lmax - cut);
+    }
+    if (st != PHKS_ERROR_NO_CONVERGENCE)
+        return st;
+    /* plain Lanczos on B */
+    filter plain = {1, 0, 1};
+    return solve(eng, &plain, k, guard, cap, norm, opt, 0.02, 1, values,
+                 vectors, &cut_low);
+}
+
 phks_status phks_eigen_lanczos(const phks_operator_matrix *op, size_t k,
                                const phks_options *opt, double *values,
                                double *vectors)
@@ -734,39 +687,26 @@ phks_status phks_eigen_lanczos(const phks_operator_matrix *op, size_t k,
     if (n < 8 * b || cap < k + guard + 4 * b ||
         (PROBE_STEPS + 1) * b > usable)
         return phks_eigen_dense(op, k, opt, values, vectors);
-    engine eng = {op, phks_thread_count(opt), false, opt, 0};
-#if HAVE_AVX2_KERNEL
-    __builtin_cpu_init();
-    eng.avx2 = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-#endif
-    double lmax = 0, cut = 0;
-    phks_status st = PHKS_ERROR_NO_CONVERGENCE;
-    bool cut_low = false;
-    {
-        st = probe(&eng, opt, k, (size_t)((double)(k + guard) * CUT_MARGIN),
-                   &lmax, &cut);
-        if (st != PHKS_OK)
-            return st;
-        st = PHKS_ERROR_NO_CONVERGENCE;
-        for (int attempt = 0; attempt < 3 && cut > 0 && cut < lmax; attempt++) {
-            double d = round(FILTER_GROWTH / acosh((lmax + cut) / (lmax - cut)));
-            int degree = d < 2 ? 2 : d > MAX_DEGREE ? MAX_DEGREE : (int)d;
-            filter f = {degree, (lmax + cut) / 2, (lmax - cut) / 2};
-            size_t fcap = 3 * (k + guard) + 8 * b;
-            fcap = fcap < cap ? fcap : cap;
-            st = solve(&eng, &f, k, guard, fcap, opt, 0.02, 0.9, values,
-                       vectors, &cut_low);
-            if (st != PHKS_ERROR_NO_CONVERGENCE || !cut_low)
-                break;
-            cut = cut + 2 * (values[k - 1] - cut) + 0.05 * (lmax - cut);
+    phks_operator_pairs pm;
+    phks_status st = phks_operator_pairs_build(op, phks_thread_count(opt), &pm);
+    if (st != PHKS_OK)
+        return st;
+    engine eng = {&pm, phks_operator_pairs_avx2(), opt, 0};
+    st = solve_all(&eng, k, guard, cap, op->norm_bound, opt, values, vectors);
+    if (st == PHKS_OK) {
+        /* back to the operator's numbering */
+        double *column = phks_malloc_array(n, sizeof *column);
+        if (!column)
+            st = phks_fail_oom("Lanczos");
+        for (size_t e = 0; e < k && st == PHKS_OK; e++) {
+            double *x = vectors + e * n;
+            memcpy(column, x, n * sizeof *column);
+            for (size_t r = 0; r < n; r++)
+                x[pm.order[r]] = column[r];
         }
-        if (st != PHKS_ERROR_NO_CONVERGENCE)
-            return st;
+        phks_free(column);
     }
-    /* plain Lanczos on B */
-    filter plain = {1, 0, 1};
-    st = solve(&eng, &plain, k, guard, cap, opt, 0.02, 1, values, vectors,
-               &cut_low);
+    phks_operator_pairs_release(&pm);
     /* Not expected on meshes; the dense solver is exact where it fits. */
     if (st == PHKS_ERROR_NO_CONVERGENCE && n <= DENSE_FALLBACK_MAX_N)
         return phks_eigen_dense(op, k, opt, values, vectors);

@@ -184,6 +184,8 @@ typedef struct phks_operator_matrix {
     double *val;
     double *mass;        /* Mh, n entries */
     double norm_bound;   /* Gershgorin bound on |B| */
+    uint32_t *order;     /* the points in Morton order of their positions
+                            (n entries; NULL: no locality order known)  */
 } phks_operator_matrix;
 
 phks_status phks_operator_build(const phks_mesh *mesh, const phks_options *opt,
@@ -203,6 +205,38 @@ phks_status phks_point_operator_build(const double *xyz, size_t n,
  * of vector j), using `threads` workers. */
 void phks_operator_apply(const phks_operator_matrix *op, const double *x,
                          double *y, size_t k, unsigned threads);
+
+/* ---- the operator laid out for block products (operator_pairs.c) */
+/* Rows taken two at a time in op->order (the identity without one): pair g
+ * holds rows 2g and 2g + 1 of P B P^T, where row r is point order[r], as
+ * one list of columns (numbered in the same order) with two values per
+ * entry, zero where the column belongs to one row only. Products on
+ * row-major n x PHKS_PAIR_BLOCK blocks in that numbering. */
+#define PHKS_PAIR_BLOCK 16
+#define PHKS_PAIR_MAX_THREADS 64
+typedef struct phks_operator_pairs {
+    size_t n, pairs;        /* rows, (n + 1) / 2 pairs                  */
+    uint32_t *order;        /* n: row r is point order[r] of the operator */
+    size_t *start;          /* pairs + 1 offsets into col               */
+    uint32_t *col;
+    double *val;            /* 2 per entry: rows 2g and 2g + 1          */
+    unsigned threads;       /* products run on this many threads,      */
+    size_t bound[PHKS_PAIR_MAX_THREADS + 1]; /* on these pair ranges of
+                               about equal entry counts                */
+} phks_operator_pairs;
+
+phks_status phks_operator_pairs_build(const phks_operator_matrix *op,
+                                      unsigned threads, phks_operator_pairs *pm);
+void phks_operator_pairs_release(phks_operator_pairs *pm);
+/* True when this processor runs the AVX2 + FMA kernel. */
+bool phks_operator_pairs_avx2(void);
+/* out = alpha (P B P^T) x + gamma x + beta z on row-major n x
+ * PHKS_PAIR_BLOCK blocks (z may be NULL; out distinct from x and z).
+ * Bit-identical for any thread count; avx2 from phks_operator_pairs_avx2
+ * (the portable kernel rounds differently). */
+void phks_operator_pairs_poly(const phks_operator_pairs *pm, bool avx2,
+                              const double *x, const double *z, double *out,
+                              double alpha, double gamma, double beta);
 
 /* ---- eigen-solvers (eigen_*.c): the k smallest eigenpairs of op's B.
  * values ascending (k), vectors column-major n x k, orthonormal in the

@@ -18,6 +18,7 @@
 #include "internal.h"
 
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 /* Rows are built in batches so that the progress callback can cancel. */
@@ -112,6 +113,66 @@ static void finish_values(phks_operator_matrix *op, const double *area,
     op->norm_bound = bound;
 }
 
+/* Morton (Z-order) key of a point: its position quantised to 2^21 steps
+ * per axis of the bounding cube, bits interleaved. */
+static uint64_t spread_bits(uint64_t v)
+{
+    v &= 0x1fffff;
+    v = (v | v << 32) & 0x1f00000000ffffull;
+    v = (v | v << 16) & 0x1f0000ff0000ffull;
+    v = (v | v << 8) & 0x100f00f00f00f00full;
+    v = (v | v << 4) & 0x10c30c30c30c30c3ull;
+    v = (v | v << 2) & 0x1249249249249249ull;
+    return v;
+}
+
+typedef struct {
+    uint64_t key;
+    uint32_t point;
+} morton_item;
+
+static int morton_cmp(const void *a, const void *b)
+{
+    const morton_item *x = a, *y = b;
+    if (x->key != y->key)
+        return x->key < y->key ? -1 : 1;
+    return x->point < y->point ? -1 : x->point > y->point;
+}
+
+/* op->order: the points sorted by Morton key (ties by index), so that
+ * points close in the order are close in space. */
+static phks_status morton_order(const double *xyz, size_t n,
+                                phks_operator_matrix *op)
+{
+    morton_item *items = phks_malloc_array(n, sizeof *items);
+    op->order = phks_malloc_array(n, sizeof *op->order);
+    if (!items || !op->order) {
+        phks_free(items);
+        return phks_fail_oom("operator");
+    }
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, extent = 0;
+    for (size_t i = 0; i < n; i++)
+        for (int d = 0; d < 3; d++)
+            lo[d] = fmin(lo[d], xyz[3 * i + d]);
+    for (size_t i = 0; i < n; i++)
+        for (int d = 0; d < 3; d++)
+            extent = fmax(extent, xyz[3 * i + d] - lo[d]);
+    double steps = extent > 0 ? 0x1.fffffp20 / extent : 0;
+    for (size_t i = 0; i < n; i++) {
+        uint64_t key = 0;
+        for (int d = 0; d < 3; d++) {
+            double q = (xyz[3 * i + d] - lo[d]) * steps;
+            key |= spread_bits(q > 0 ? (uint64_t)q : 0) << d;
+        }
+        items[i] = (morton_item){key, (uint32_t)i};
+    }
+    qsort(items, n, sizeof *items, morton_cmp);
+    for (size_t i = 0; i < n; i++)
+        op->order[i] = items[i].point;
+    phks_free(items);
+    return PHKS_OK;
+}
+
 phks_status phks_point_operator_build(const double *xyz, size_t n,
                                       double scale, const double *area,
                                       const double *gain,
@@ -163,7 +224,9 @@ phks_status phks_point_operator_build(const double *xyz, size_t n,
                           ? area[w] * density[w] / (4 * PHKS_PI * h)
                           : area[w];
     finish_values(op, area, gain, 1 / (4 * PHKS_PI * h * h));
-    st = phks_progress(opt, PHKS_STAGE_OPERATOR, done + span);
+    st = morton_order(xyz, n, op);
+    if (st == PHKS_OK)
+        st = phks_progress(opt, PHKS_STAGE_OPERATOR, done + span);
 done:
     phks_grid_release(&grid);
     phks_free(density);
@@ -200,6 +263,7 @@ void phks_operator_release(phks_operator_matrix *op)
     phks_free(op->col);
     phks_free(op->val);
     phks_free(op->mass);
+    phks_free(op->order);
     memset(op, 0, sizeof *op);
 }
 
