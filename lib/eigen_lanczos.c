@@ -149,8 +149,12 @@ typedef struct {
     double *tau;            /* b Householder scalars                         */
     double *ritz;           /* room x room eigenvectors of T                 */
     double *theta;          /* room eigenvalues of T                         */
-    lapack_int *support;    /* 2 room, for dsyevr                            */
-    double *tfull;          /* room x room copy of T for dsyevr              */
+    lapack_int *support;    /* 2 room, for dstemr                            */
+    double *tfull;          /* room x room: T, then its tridiagonal reduction */
+    double *diag, *off, *reflect; /* room each: the tridiagonal matrix and
+                               the reflectors' scalars                       */
+    double *edge;           /* room x b: Q^T of the last b unit vectors      */
+    double *bottom;         /* b x room: last b rows of T's eigenvectors     */
 } lanczos;
 
 static void release(lanczos *L)
@@ -167,6 +171,11 @@ static void release(lanczos *L)
     phks_free(L->theta);
     phks_free(L->support);
     phks_free(L->tfull);
+    phks_free(L->diag);
+    phks_free(L->off);
+    phks_free(L->reflect);
+    phks_free(L->edge);
+    phks_free(L->bottom);
     memset(L, 0, sizeof *L);
 }
 
@@ -201,6 +210,11 @@ static phks_status reserve(lanczos *L, size_t columns)
     GROW(theta, room);
     GROW(support, 2 * room);
     GROW(tfull, room * room);
+    GROW(diag, room);
+    GROW(off, room);
+    GROW(reflect, room);
+    GROW(edge, room * L->b);
+    GROW(bottom, room * L->b);
     L->room = room;
     return PHKS_OK;
 }
@@ -342,28 +356,80 @@ static phks_status next_block(lanczos *L, size_t m, double *r, double scale)
     return PHKS_OK;
 }
 
-/* Eigenpairs il..iu (1-based, ascending) of T[0:m, 0:m] into theta/ritz
- * (ritz has leading dimension m). */
+/* Eigenpairs il..iu (1-based, ascending) of T[0:m, 0:m]: the values into
+ * theta, the last b rows of the eigenvectors into bottom (b x count, for
+ * the residuals), and the eigenvectors of T's tridiagonal form into ritz
+ * (leading dimension m; ritz_vectors turns them into T's). The reduction
+ * to tridiagonal form costs a fraction of dsyevr's subset path (bisection
+ * and inverse iteration), and MRRR (dstemr) gives the selected pairs; the
+ * reflectors are applied only to the b unit vectors the residuals need,
+ * and to the Ritz vectors once they are wanted. */
 static phks_status eig_t(lanczos *L, size_t m, size_t il, size_t iu)
 {
-    for (size_t j = 0; j < m; j++) {
+    size_t b = L->b, count = iu - il + 1;
+    for (size_t j = 0; j < m; j++)
         memcpy(L->tfull + j * m, L->t + j * L->room, (j + 1) * sizeof(double));
-    }
+    lapack_int info = LAPACKE_dsytrd(LAPACK_COL_MAJOR, 'U', (lapack_int)m, L->tfull,
+                                     (lapack_int)m, L->diag, L->off, L->reflect);
+    if (info != 0)
+        return phks_fail(PHKS_ERROR_SOLVER, "Lanczos: dsytrd info %d", (int)info);
     lapack_int found = 0;
-    lapack_int info = LAPACKE_dsyevr(LAPACK_COL_MAJOR, 'V', 'I', 'U',
-                                     (lapack_int)m, L->tfull, (lapack_int)m, 0,
-                                     0, (lapack_int)il, (lapack_int)iu, 0, &found,
-                                     L->theta, L->ritz, (lapack_int)m, L->support);
-    if (info != 0 || (size_t)found != iu - il + 1)
-        return phks_fail(PHKS_ERROR_SOLVER, "Lanczos: dsyevr info %d", (int)info);
+    lapack_logical tryrac = 1;
+    info = LAPACKE_dstemr(LAPACK_COL_MAJOR, 'V', 'I', (lapack_int)m, L->diag,
+                          L->off, 0, 0, (lapack_int)il, (lapack_int)iu, &found,
+                          L->theta, L->ritz, (lapack_int)m, (lapack_int)count,
+                          L->support, &tryrac);
+    if (info != 0 || (size_t)found != count)
+        return phks_fail(PHKS_ERROR_SOLVER, "Lanczos: dstemr info %d", (int)info);
+    memset(L->edge, 0, m * b * sizeof(double));
+    for (size_t j = 0; j < b; j++)
+        L->edge[j * m + m - b + j] = 1;
+    info = LAPACKE_dormtr(LAPACK_COL_MAJOR, 'L', 'U', 'T', (lapack_int)m,
+                          (lapack_int)b, L->tfull, (lapack_int)m, L->reflect,
+                          L->edge, (lapack_int)m);
+    if (info != 0)
+        return phks_fail(PHKS_ERROR_SOLVER, "Lanczos: dormtr info %d", (int)info);
+    cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, (int)b, (int)count,
+                (int)m, 1.0, L->edge, (int)m, L->ritz, (int)m, 0.0, L->bottom,
+                (int)b);
     return PHKS_OK;
 }
 
-/* |R s_last| for Ritz vector e (column e of ritz, m rows): its residual. */
-static double ritz_residual(const lanczos *L, size_t m, const double *r, size_t e)
+/* Columns [first, first + count) of ritz, from eig_t's last call, become
+ * eigenvectors of T. MRRR's vectors are orthogonal to a few hundred
+ * rounding errors only, where the Rayleigh-Ritz step that follows wants
+ * them orthonormal to working precision: two passes of Cholesky QR
+ * (a count x count Gram matrix) restore that. */
+static phks_status ritz_vectors(lanczos *L, size_t m, size_t first, size_t count)
+{
+    double *s = L->ritz + first * m;
+    lapack_int info = LAPACKE_dormtr(LAPACK_COL_MAJOR, 'L', 'U', 'N',
+                                     (lapack_int)m, (lapack_int)count, L->tfull,
+                                     (lapack_int)m, L->reflect, s, (lapack_int)m);
+    if (info != 0)
+        return phks_fail(PHKS_ERROR_SOLVER, "Lanczos: dormtr info %d", (int)info);
+    /* the Gram matrix goes where T's reduction was: it is not needed now */
+    double *gram = L->tfull;
+    for (int pass = 0; pass < 2; pass++) {
+        cblas_dsyrk(CblasColMajor, CblasUpper, CblasTrans, (int)count, (int)m,
+                    1.0, s, (int)m, 0.0, gram, (int)count);
+        info = LAPACKE_dpotrf(LAPACK_COL_MAJOR, 'U', (lapack_int)count, gram,
+                              (lapack_int)count);
+        if (info != 0)
+            return phks_fail(PHKS_ERROR_SOLVER, "Lanczos: dpotrf info %d", (int)info);
+        cblas_dtrsm(CblasColMajor, CblasRight, CblasUpper, CblasNoTrans,
+                    CblasNonUnit, (int)m, (int)count, 1.0, gram, (int)count, s,
+                    (int)m);
+    }
+    return PHKS_OK;
+}
+
+/* |R s_last| for Ritz vector e (its last b rows in column e of bottom):
+ * its residual. */
+static double ritz_residual(const lanczos *L, const double *r, size_t e)
 {
     size_t b = L->b;
-    const double *s = L->ritz + e * m + (m - b);
+    const double *s = L->bottom + e * b;
     double sum = 0;
     for (size_t i = 0; i < b; i++) {
         double x = 0;
@@ -430,10 +496,12 @@ static phks_status probe(engine *eng, const phks_options *opt, size_t k,
     }
     if (st == PHKS_OK)
         st = eig_t(&L, m, 1, m);
+    if (st == PHKS_OK)
+        st = ritz_vectors(&L, m, 0, m);
     if (st == PHKS_OK) {
         /* T holds -B: eigenvalues of B are -theta, in reverse order. */
         double top = -L.theta[0];
-        double res = ritz_residual(&L, m, r, 0);
+        double res = ritz_residual(&L, r, 0);
         *lmax = (top + res) * 1.01;
         /* count estimate: n / b * sum of |first-block components|^2 */
         double count = 0;
@@ -495,10 +563,12 @@ static phks_status rayleigh_ritz(lanczos *L, const engine *eng, size_t m,
     for (size_t j = 0; j < q; j++) /* symmetrise */
         for (size_t i = 0; i < j; i++)
             g[j * q + i] = g[i * q + j] = 0.5 * (g[j * q + i] + g[i * q + j]);
-    lapack_int info = LAPACKE_dsyev(LAPACK_COL_MAJOR, 'V', 'U', (lapack_int)q, g,
-                                    (lapack_int)q, gv);
+    /* divide and conquer: several times faster than dsyev's QR iteration
+     * at q of a few hundred */
+    lapack_int info = LAPACKE_dsyevd(LAPACK_COL_MAJOR, 'V', 'U', (lapack_int)q, g,
+                                     (lapack_int)q, gv);
     if (info != 0) {
-        st = phks_fail(PHKS_ERROR_SOLVER, "Lanczos: dsyev info %d", (int)info);
+        st = phks_fail(PHKS_ERROR_SOLVER, "Lanczos: dsyevd info %d", (int)info);
         goto done;
     }
     cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)n, (int)k,
@@ -583,7 +653,7 @@ static phks_status solve(engine *eng, const filter *f, size_t k,
                 excess = -INFINITY;
                 for (size_t e = 1 + (q - k); e <= upto; e++) {
                     double gap = L.theta[e] - floor_mu;
-                    double res = ritz_residual(&L, m, r, e);
+                    double res = ritz_residual(&L, r, e);
                     double x = gap > 0 ? log(res / (strict * opt->tolerance * gap))
                                        : INFINITY;
                     excess = isnan(x) ? INFINITY : fmax(excess, x);
@@ -595,6 +665,9 @@ static phks_status solve(engine *eng, const filter *f, size_t k,
             /* Ritz vectors of the top q are columns 1..q */
             if (ok) {
                 double worst = INFINITY;
+                st = ritz_vectors(&L, m, 1, q);
+                if (st != PHKS_OK)
+                    break;
                 memmove(L.ritz, L.ritz + m, q * m * sizeof(double));
                 st = rayleigh_ritz(&L, eng, m, q, k, values, vectors, &worst);
                 if (st != PHKS_OK)

@@ -21,6 +21,13 @@
 #include <stdlib.h>
 #include <string.h>
 
+#if defined(__GNUC__) && defined(__x86_64__)
+#include <immintrin.h>
+#define HAVE_AVX2 1
+#else
+#define HAVE_AVX2 0
+#endif
+
 /* Rows are built in batches so that the progress callback can cancel. */
 #define ROW_BATCHES 16
 
@@ -30,19 +37,74 @@ typedef struct {
     double scale;
     double radius2;   /* squared cut-off radius */
     double inv4h;     /* 1 / 4h */
-    const double *area;
+    /* The points in the grid's order (cell by cell), so that the points of
+     * a row of cells lie in one stretch of memory: scaled positions and
+     * areas. */
+    const double *px, *py, *pz, *parea;
     size_t *row_start;
     uint32_t *col;
     double *val;      /* on the fill pass: A_p W(w,p) */
     double *density;  /* sum_p A_p W(w,p), p = w included */
     bool fill;
+    bool avx2;        /* distances with AVX2 (same results)              */
 } build_ctx;
 
+/* Candidates are examined in chunks of this many: distances first, then
+ * the kernel for those within the radius, without unpredictable branches. */
+#define CHUNK 256
+
+/* Squared distances from p of the sorted points [lo, hi) into d2 (the
+ * same roundings in both versions: no fused multiply-add). */
+static void distances_generic(const build_ctx *b, const double p[3], size_t lo,
+                              size_t hi, double *d2)
+{
+    for (size_t i = lo; i < hi; i++) {
+        double dx = b->px[i] - p[0], dy = b->py[i] - p[1], dz = b->pz[i] - p[2];
+        d2[i - lo] = dx * dx + dy * dy + dz * dz;
+    }
+}
+
+#if HAVE_AVX2
+__attribute__((target("avx2"))) static void distances_avx2(const build_ctx *b,
+                                                            const double p[3],
+                                                            size_t lo, size_t hi,
+                                                            double *d2)
+{
+    const __m256d cx = _mm256_set1_pd(p[0]), cy = _mm256_set1_pd(p[1]),
+                  cz = _mm256_set1_pd(p[2]);
+    size_t i = lo;
+    for (; i + 4 <= hi; i += 4) {
+        __m256d dx = _mm256_sub_pd(_mm256_loadu_pd(b->px + i), cx);
+        __m256d dy = _mm256_sub_pd(_mm256_loadu_pd(b->py + i), cy);
+        __m256d dz = _mm256_sub_pd(_mm256_loadu_pd(b->pz + i), cz);
+        __m256d s = _mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_mul_pd(dy, dy));
+        _mm256_storeu_pd(d2 + (i - lo), _mm256_add_pd(s, _mm256_mul_pd(dz, dz)));
+    }
+    distances_generic(b, p, i, hi, d2 + (i - lo));
+}
+#endif
+
+static void distances(const build_ctx *b, const double p[3], size_t lo,
+                      size_t hi, double *d2)
+{
+#if HAVE_AVX2
+    if (b->avx2) {
+        distances_avx2(b, p, lo, hi, d2);
+        return;
+    }
+#endif
+    distances_generic(b, p, lo, hi, d2);
+}
+
 /* Visits the neighbours of point w within the radius: counts them (first
- * pass) or stores them (second pass), and sums the kernel density. */
+ * pass) or stores them (second pass), and sums the kernel density. The
+ * 27 cells around w's are 9 runs of 3 consecutive cells; in each run the
+ * candidates lie in one stretch of the sorted arrays. w itself is at
+ * distance 0, within any radius the options allow. */
 static void scan_row(const build_ctx *b, size_t w)
 {
     const phks_grid *g = b->grid;
+    const double r2 = b->radius2;
     double p[3];
     size_t c[3];
     for (int d = 0; d < 3; d++) {
@@ -52,28 +114,35 @@ static void scan_row(const build_ctx *b, size_t w)
     }
     size_t count = 0, out = b->fill ? b->row_start[w] : 0;
     double density = 0;
+    size_t x0 = c[0] ? c[0] - 1 : 0, x1 = c[0] + 1 < g->dims[0] ? c[0] + 1 : c[0];
     for (size_t z = c[2] ? c[2] - 1 : 0; z <= c[2] + 1 && z < g->dims[2]; z++)
-        for (size_t y = c[1] ? c[1] - 1 : 0; y <= c[1] + 1 && y < g->dims[1]; y++)
-            for (size_t x = c[0] ? c[0] - 1 : 0; x <= c[0] + 1 && x < g->dims[0]; x++) {
-                size_t cell = (z * g->dims[1] + y) * g->dims[0] + x;
-                for (size_t i = g->cell_start[cell]; i < g->cell_start[cell + 1]; i++) {
-                    uint32_t q = g->points[i];
-                    const double *r = b->xyz + 3 * (size_t)q;
-                    double dx = r[0] * b->scale - p[0], dy = r[1] * b->scale - p[1],
-                           dz = r[2] * b->scale - p[2];
-                    double d2 = dx * dx + dy * dy + dz * dz;
-                    if (d2 >= b->radius2 && q != w)
-                        continue;
-                    count++;
-                    if (!b->fill)
-                        continue;
-                    double aw = b->area[q] * exp(-d2 * b->inv4h);
+        for (size_t y = c[1] ? c[1] - 1 : 0; y <= c[1] + 1 && y < g->dims[1]; y++) {
+            size_t run = (z * g->dims[1] + y) * g->dims[0];
+            size_t lo = g->cell_start[run + x0], hi = g->cell_start[run + x1 + 1];
+            for (size_t first = lo; first < hi; first += CHUNK) {
+                size_t last = hi - first > CHUNK ? first + CHUNK : hi, kept = 0;
+                uint32_t near[CHUNK];
+                double dist2[CHUNK];
+                distances(b, p, first, last, dist2);
+                if (!b->fill) {
+                    for (size_t j = 0; j < last - first; j++)
+                        count += dist2[j] < r2;
+                    continue;
+                }
+                for (size_t j = 0; j < last - first; j++) {
+                    near[kept] = (uint32_t)(first + j);
+                    dist2[kept] = dist2[j];
+                    kept += dist2[j] < r2;
+                }
+                for (size_t j = 0; j < kept; j++) {
+                    double aw = b->parea[near[j]] * exp(-dist2[j] * b->inv4h);
                     density += aw;
-                    b->col[out] = q;
+                    b->col[out] = g->points[near[j]];
                     b->val[out] = aw;
                     out++;
                 }
             }
+        }
     if (b->fill)
         b->density[w] = density;
     else
@@ -86,12 +155,22 @@ static void scan_rows(void *ctx, size_t begin, size_t end)
         scan_row(ctx, w);
 }
 
-/* Turns the stored A_p W(w,p) into entries of B (see the top comment). */
-static void finish_values(phks_operator_matrix *op, const double *area,
-                          const double *gain, double c)
+/* Turns the stored A_p W(w,p) into entries of B (see the top comment),
+ * rows [begin, end); each row's Gershgorin bound goes to row_bound. */
+typedef struct {
+    phks_operator_matrix *op;
+    const double *area, *gain;
+    double c;
+    double *row_bound;
+} finish_ctx;
+
+static void finish_rows(void *ctx, size_t begin, size_t end)
 {
-    double bound = 0;
-    for (size_t w = 0; w < op->n; w++) {
+    const finish_ctx *f = ctx;
+    phks_operator_matrix *op = f->op;
+    const double *area = f->area, *gain = f->gain;
+    const double c = f->c;
+    for (size_t w = begin; w < end; w++) {
         double diag = 0, off = 0;
         size_t self = op->row_start[w];
         for (size_t i = op->row_start[w]; i < op->row_start[w + 1]; i++) {
@@ -108,9 +187,8 @@ static void finish_values(phks_operator_matrix *op, const double *area,
             off += fabs(op->val[i]);
         }
         op->val[self] = c * diag / op->mass[w];
-        bound = fmax(bound, op->val[self] + off);
+        f->row_bound[w] = op->val[self] + off;
     }
-    op->norm_bound = bound;
 }
 
 /* Morton (Z-order) key of a point: its position quantised to 2^21 steps
@@ -181,7 +259,7 @@ phks_status phks_point_operator_build(const double *xyz, size_t n,
 {
     memset(op, 0, sizeof *op);
     double h = opt->tau, radius = opt->cutoff * sqrt(4 * h);
-    double *density = phks_malloc_array(n, sizeof *density);
+    double *density = phks_malloc_array(n, sizeof *density), *sorted = NULL;
     phks_grid grid = {0};
     phks_status st = PHKS_OK;
     op->n = n;
@@ -194,9 +272,23 @@ phks_status phks_point_operator_build(const double *xyz, size_t n,
     st = phks_grid_build(xyz, n, scale, radius, &grid);
     if (st != PHKS_OK)
         goto done;
+    sorted = phks_malloc_array(n, 4 * sizeof *sorted);
+    if (!sorted) {
+        st = phks_fail_oom("operator");
+        goto done;
+    }
+    for (size_t i = 0; i < n; i++) {
+        const double *r = xyz + 3 * (size_t)grid.points[i];
+        sorted[i] = r[0] * scale;
+        sorted[n + i] = r[1] * scale;
+        sorted[2 * n + i] = r[2] * scale;
+        sorted[3 * n + i] = area[grid.points[i]];
+    }
 
-    build_ctx b = {&grid, xyz, scale, radius * radius, 1 / (4 * h), area,
-                   op->row_start, NULL, NULL, density, false};
+    build_ctx b = {&grid, xyz, scale, radius * radius, 1 / (4 * h),
+                   sorted, sorted + n, sorted + 2 * n, sorted + 3 * n,
+                   op->row_start, NULL, NULL, density, false,
+                   phks_operator_pairs_avx2()};
     unsigned threads = phks_thread_count(opt);
     st = phks_run_batched(n, threads, scan_rows, &b, opt, PHKS_STAGE_OPERATOR,
                           done, 0.3 * span, ROW_BATCHES);
@@ -223,13 +315,19 @@ phks_status phks_point_operator_build(const double *xyz, size_t n,
         op->mass[w] = opt->operator_kind == PHKS_OPERATOR_RANDOM_WALK
                           ? area[w] * density[w] / (4 * PHKS_PI * h)
                           : area[w];
-    finish_values(op, area, gain, 1 / (4 * PHKS_PI * h * h));
+    /* the row bounds go where the sorted positions were */
+    finish_ctx f = {op, area, gain, 1 / (4 * PHKS_PI * h * h), sorted};
+    phks_parallel_for(n, threads, finish_rows, &f);
+    op->norm_bound = 0;
+    for (size_t w = 0; w < n; w++)
+        op->norm_bound = fmax(op->norm_bound, sorted[w]);
     st = morton_order(xyz, n, op);
     if (st == PHKS_OK)
         st = phks_progress(opt, PHKS_STAGE_OPERATOR, done + span);
 done:
     phks_grid_release(&grid);
     phks_free(density);
+    phks_free(sorted);
     if (st != PHKS_OK)
         phks_operator_release(op);
     return st;
