@@ -138,6 +138,8 @@ static phks_status apply_filter(const engine *e, const filter *f,
 
 typedef struct {
     size_t n, k, b;
+    bool local;             /* re-orthogonalise against the last two blocks
+                               only (the probe)                              */
     size_t cap;             /* most basis columns allowed                    */
     size_t room;            /* basis columns allocated so far                */
     double *v;              /* n x room, column-major basis                  */
@@ -274,7 +276,8 @@ static double smallest_ratio(const lanczos *L, const double *w, const double *be
  * without cancellation; a second one follows when the pass did shrink a
  * column by more than 1/sqrt(2) (Daniel-Gragg-Kaufman-Stewart). When
  * col >= 0, W is p(B) times the basis block at columns [col, col + b), and
- * the coefficients go to T. */
+ * the coefficients go to T. With L->local (the probe), only the last two
+ * blocks. */
 static void orthogonalise(lanczos *L, size_t m, double *w, long col)
 {
     size_t n = L->n, b = L->b;
@@ -283,7 +286,7 @@ static void orthogonalise(lanczos *L, size_t m, double *w, long col)
     size_t lo = m > 2 * b ? m - 2 * b : 0;
     project(L, lo, m, w, col);
     project(L, lo, m, w, col);
-    if (lo == 0)
+    if (lo == 0 || L->local)
         return;
     double before[BLOCK];
     for (size_t j = 0; j < b; j++)
@@ -468,7 +471,12 @@ static phks_status step(lanczos *L, const run_ctx *rc, size_t m, double *r)
 
 /* A short plain block Lanczos on B: an upper bound on lmax and the cut a
  * with about `target` eigenvalues below it (Gauss quadrature estimate of
- * the counting function from the random start block). */
+ * the counting function from the random start block). Its basis is kept
+ * orthogonal to the last two blocks only: Lanczos without full
+ * re-orthogonalisation still gives the Gauss quadrature of the start
+ * block's spectral measure (Greenbaum; the copies of converged Ritz values
+ * share their weight), and the extreme Ritz values stay within the
+ * spectrum, at a small fraction of the cost. */
 static phks_status probe(engine *eng, const phks_options *opt, size_t k,
                          size_t target, double *lmax, double *cut)
 {
@@ -476,7 +484,7 @@ static phks_status probe(engine *eng, const phks_options *opt, size_t k,
     size_t steps = PROBE_STEPS;
     if ((steps + 1) * b > n - n % b)
         steps = (n - n % b) / b - 1;
-    lanczos L = {.n = n, .k = k, .b = b, .cap = steps * b};
+    lanczos L = {.n = n, .k = k, .b = b, .local = true, .cap = steps * b};
     phks_status st = allocate(&L, L.cap);
     double r[BLOCK * BLOCK], smallest;
     filter plain = {1, 0, 1};
