@@ -64,6 +64,11 @@
 /* The cut is placed where about CUT_MARGIN (k + guard) eigenvalues lie
  * below it, by the probe's estimate. */
 #define CUT_MARGIN 1.2
+/* The log of (largest Ritz residual / its threshold) falls by 0.12-0.19
+ * per basis column on PSB meshes once convergence is near; the second
+ * check is placed by this faster rate, so that it comes early (one more
+ * check) rather than late (more basis). */
+#define FIRST_SLOPE 0.25
 /* Largest n for which a solve that did not converge is redone densely
  * (eigen_dense.c's own limit). */
 #define DENSE_FALLBACK_MAX_N 16384
@@ -689,15 +694,20 @@ static phks_status solve(engine *eng, const filter *f, size_t k,
                     break;
                 strict *= 0.1;
             }
-            /* next check where the log excess, extrapolated linearly
-             * from the last two checks, reaches 0 */
-            size_t ahead = m / 4;
-            if (last_check && excess < last_excess && isfinite(excess)) {
-                double slope = (last_excess - excess) / (double)(m - last_check);
-                double need = excess / slope;
-                ahead = need < (double)(m / 4) ? (size_t)need : m / 4;
+            /* Next check where the log excess reaches 0, extrapolated
+             * linearly from the last two checks, or from this one at
+             * FIRST_SLOPE; at most m / 4 ahead. After a Rayleigh-Ritz that
+             * failed, the threshold is 10 times stricter. */
+            if (ok)
+                excess += log(10);
+            double need = (double)(m / 4);
+            if (isfinite(excess)) {
+                double slope = FIRST_SLOPE;
+                if (last_check && excess < last_excess)
+                    slope = (last_excess - excess) / (double)(m - last_check);
+                need = fmin(need, excess / slope);
             }
-            ahead = ahead > b ? ahead - ahead % b : b;
+            size_t ahead = need > (double)b ? (size_t)ceil(need / (double)b) * b : b;
             last_check = m;
             last_excess = excess;
             next_check = m + ahead;
