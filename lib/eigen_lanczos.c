@@ -715,7 +715,9 @@ static phks_status solve(engine *eng, const filter *f, size_t k,
     double tol = opt->tolerance * norm;
     *cut_low = false;
     lanczos L = {.n = n, .k = k, .b = b, .cap = cap};
-    phks_status st = allocate(&L, q + 4 * b);
+    /* Room for the basis the filtered solves end with on PSB meshes
+     * (1.5 q to 2.2 q): growing it means copying it. */
+    phks_status st = allocate(&L, 2 * q + 4 * b);
     run_ctx rc = {eng, f};
     double r[BLOCK * BLOCK], smallest;
     if (st == PHKS_OK) {
