@@ -52,8 +52,10 @@
 /* Below this (relative to the norm before projection), the new block's
  * orthogonality to the basis is restored by further passes. */
 #define REPAIR 1e-6
-/* Steps of the first, plain Lanczos run that estimates the spectrum. */
-#define PROBE_STEPS 24
+/* Steps of the first, plain Lanczos run that estimates the spectrum: 16
+ * gave cuts within a few percent of 24's, and 7% less work over 14 PSB
+ * meshes of 4.3k-15k vertices. */
+#define PROBE_STEPS 16
 /* Degree of the Chebyshev filter: chosen so that p(0) = T_d(x0) is about
  * cosh(FILTER_GROWTH), x0 = (lmax + a) / (lmax - a). With a near
  * 0.5 lmax that is degree 4, measured best among 1, 2, 3, 4, 6, 8 on meshes
