@@ -100,19 +100,40 @@ typedef struct {
     double c, e;
 } filter;
 
-/* Column-major n x BLOCK <-> row-major. */
-static void to_rows(const double *cols, double *rows, size_t n)
+/* Column-major n x BLOCK <-> row-major, rows split over the product's
+ * threads. */
+typedef struct {
+    const double *from;
+    double *to;
+    size_t n;
+} transpose_ctx;
+
+static void to_rows_range(void *ctx, size_t begin, size_t end)
 {
-    for (size_t i = 0; i < n; i++)
+    const transpose_ctx *t = ctx;
+    for (size_t i = begin; i < end; i++)
         for (size_t j = 0; j < BLOCK; j++)
-            rows[i * BLOCK + j] = cols[j * n + i];
+            t->to[i * BLOCK + j] = t->from[j * t->n + i];
 }
 
-static void to_cols(const double *rows, double *cols, size_t n)
+static void to_cols_range(void *ctx, size_t begin, size_t end)
 {
+    const transpose_ctx *t = ctx;
     for (size_t j = 0; j < BLOCK; j++)
-        for (size_t i = 0; i < n; i++)
-            cols[j * n + i] = rows[i * BLOCK + j];
+        for (size_t i = begin; i < end; i++)
+            t->to[j * t->n + i] = t->from[i * BLOCK + j];
+}
+
+static void to_rows(const engine *e, const double *cols, double *rows, size_t n)
+{
+    transpose_ctx t = {cols, rows, n};
+    phks_parallel_for(n, e->pm->threads, to_rows_range, &t);
+}
+
+static void to_cols(const engine *e, const double *rows, double *cols, size_t n)
+{
+    transpose_ctx t = {rows, cols, n};
+    phks_parallel_for(n, e->pm->threads, to_cols_range, &t);
 }
 
 /* out (column-major) = p(B) in (column-major), with three row-major
@@ -121,7 +142,7 @@ static phks_status apply_filter(const engine *e, const filter *f,
                                 const double *in, double *out, double *r[3],
                                 size_t n)
 {
-    to_rows(in, r[0], n);
+    to_rows(e, in, r[0], n);
     /* T_1 = (c x - B x) / e */
     poly_step(e, r[0], NULL, r[1], -1 / f->e, f->c / f->e, 0);
     double *prev = r[0], *cur = r[1], *spare = r[2];
@@ -137,7 +158,7 @@ static phks_status apply_filter(const engine *e, const filter *f,
         cur = spare;
         spare = t;
     }
-    to_cols(cur, out, n);
+    to_cols(e, cur, out, n);
     return phks_progress(e->opt, PHKS_STAGE_EIGEN, e->fraction);
 }
 
@@ -241,6 +262,13 @@ static phks_status allocate(lanczos *L, size_t first)
     return reserve(L, first < L->cap ? first : L->cap);
 }
 
+/* Euclidean norm; the vectors here are far from overflow, and a dot
+ * product is several times faster than dnrm2's scaled sum. */
+static double norm2(size_t n, const double *x)
+{
+    return sqrt(cblas_ddot((int)n, x, 1, x, 1));
+}
+
 /* A fixed pseudo-random block, so that every run starts alike. */
 static void random_block(double *w, size_t n, size_t b, uint64_t seed)
 {
@@ -269,7 +297,7 @@ static double smallest_ratio(const lanczos *L, const double *w, const double *be
 {
     double s = INFINITY;
     for (size_t j = 0; j < L->b; j++) {
-        double x = cblas_dnrm2((int)L->n, w + j * L->n, 1);
+        double x = norm2(L->n, w + j * L->n);
         s = fmin(s, before[j] > 0 ? x / before[j] : 1);
     }
     return s;
@@ -297,7 +325,7 @@ static void orthogonalise(lanczos *L, size_t m, double *w, long col)
         return;
     double before[BLOCK];
     for (size_t j = 0; j < b; j++)
-        before[j] = cblas_dnrm2((int)n, w + j * n, 1);
+        before[j] = norm2(n, w + j * n);
     project(L, 0, m, w, col);
     if (smallest_ratio(L, w, before) < 0.7071)
         project(L, 0, m, w, col);
@@ -311,7 +339,7 @@ static phks_status qr(lanczos *L, double *w, double *r, double *smallest)
     size_t n = L->n, b = L->b;
     double big = 0;
     for (size_t j = 0; j < b; j++)
-        big = fmax(big, cblas_dnrm2((int)n, w + j * n, 1));
+        big = fmax(big, norm2(n, w + j * n));
     lapack_int info = LAPACKE_dgeqrf(LAPACK_COL_MAJOR, (lapack_int)n,
                                      (lapack_int)b, w, (lapack_int)n, L->tau);
     if (info != 0)
@@ -469,7 +497,7 @@ static phks_status step(lanczos *L, const run_ctx *rc, size_t m, double *r)
         return fst;
     double scale = 0;
     for (size_t j = 0; j < b; j++)
-        scale = fmax(scale, cblas_dnrm2((int)n, L->w + j * n, 1));
+        scale = fmax(scale, norm2(n, L->w + j * n));
     orthogonalise(L, m, L->w, (long)(m - b));
     return next_block(L, m, r, scale);
 }
