@@ -181,8 +181,11 @@ typedef struct {
     double *theta;          /* room eigenvalues of T                         */
     lapack_int *support;    /* 2 room, for dstemr                            */
     double *tfull;          /* room x room: T, then its tridiagonal reduction */
-    double *diag, *off, *reflect; /* room each: the tridiagonal matrix and
-                               the reflectors' scalars                       */
+    double *tridiag;        /* 2 room: T's tridiagonal form (diagonal, then
+                               off-diagonal), kept between the two rounds
+                               of a check                                    */
+    double *diag, *off, *reflect; /* room each: dstemr's copy of it, and the
+                               reflectors' scalars                           */
     double *edge;           /* room x b: Q^T of the last b unit vectors      */
     double *bottom;         /* b x room: last b rows of T's eigenvectors     */
 } lanczos;
@@ -201,6 +204,7 @@ static void release(lanczos *L)
     phks_free(L->theta);
     phks_free(L->support);
     phks_free(L->tfull);
+    phks_free(L->tridiag);
     phks_free(L->diag);
     phks_free(L->off);
     phks_free(L->reflect);
@@ -240,6 +244,7 @@ static phks_status reserve(lanczos *L, size_t columns)
     GROW(theta, room);
     GROW(support, 2 * room);
     GROW(tfull, room * room);
+    GROW(tridiag, 2 * room);
     GROW(diag, room);
     GROW(off, room);
     GROW(reflect, room);
@@ -401,16 +406,31 @@ static phks_status next_block(lanczos *L, size_t m, double *r, double scale)
  * to tridiagonal form costs a fraction of dsyevr's subset path (bisection
  * and inverse iteration), and MRRR (dstemr) gives the selected pairs; the
  * reflectors are applied only to the b unit vectors the residuals need,
- * and to the Ritz vectors once they are wanted. */
-static phks_status eig_t(lanczos *L, size_t m, size_t il, size_t iu)
+ * and to the Ritz vectors once they are wanted. With reduce false, the
+ * reduction of the previous call (same T, same m) serves again. */
+static phks_status eig_t(lanczos *L, size_t m, size_t il, size_t iu, bool reduce)
 {
     size_t b = L->b, count = iu - il + 1;
-    for (size_t j = 0; j < m; j++)
-        memcpy(L->tfull + j * m, L->t + j * L->room, (j + 1) * sizeof(double));
-    lapack_int info = LAPACKE_dsytrd(LAPACK_COL_MAJOR, 'U', (lapack_int)m, L->tfull,
-                                     (lapack_int)m, L->diag, L->off, L->reflect);
-    if (info != 0)
-        return phks_fail(PHKS_ERROR_SOLVER, "Lanczos: dsytrd info %d", (int)info);
+    lapack_int info;
+    if (reduce) {
+        for (size_t j = 0; j < m; j++)
+            memcpy(L->tfull + j * m, L->t + j * L->room, (j + 1) * sizeof(double));
+        info = LAPACKE_dsytrd(LAPACK_COL_MAJOR, 'U', (lapack_int)m, L->tfull,
+                              (lapack_int)m, L->tridiag, L->tridiag + m, L->reflect);
+        if (info != 0)
+            return phks_fail(PHKS_ERROR_SOLVER, "Lanczos: dsytrd info %d", (int)info);
+        memset(L->edge, 0, m * b * sizeof(double));
+        for (size_t j = 0; j < b; j++)
+            L->edge[j * m + m - b + j] = 1;
+        info = LAPACKE_dormtr(LAPACK_COL_MAJOR, 'L', 'U', 'T', (lapack_int)m,
+                              (lapack_int)b, L->tfull, (lapack_int)m, L->reflect,
+                              L->edge, (lapack_int)m);
+        if (info != 0)
+            return phks_fail(PHKS_ERROR_SOLVER, "Lanczos: dormtr info %d", (int)info);
+    }
+    /* dstemr overwrites the tridiagonal matrix: it works on a copy */
+    memcpy(L->diag, L->tridiag, m * sizeof(double));
+    memcpy(L->off, L->tridiag + m, m * sizeof(double));
     lapack_int found = 0;
     lapack_logical tryrac = 1;
     info = LAPACKE_dstemr(LAPACK_COL_MAJOR, 'V', 'I', (lapack_int)m, L->diag,
@@ -419,14 +439,6 @@ static phks_status eig_t(lanczos *L, size_t m, size_t il, size_t iu)
                           L->support, &tryrac);
     if (info != 0 || (size_t)found != count)
         return phks_fail(PHKS_ERROR_SOLVER, "Lanczos: dstemr info %d", (int)info);
-    memset(L->edge, 0, m * b * sizeof(double));
-    for (size_t j = 0; j < b; j++)
-        L->edge[j * m + m - b + j] = 1;
-    info = LAPACKE_dormtr(LAPACK_COL_MAJOR, 'L', 'U', 'T', (lapack_int)m,
-                          (lapack_int)b, L->tfull, (lapack_int)m, L->reflect,
-                          L->edge, (lapack_int)m);
-    if (info != 0)
-        return phks_fail(PHKS_ERROR_SOLVER, "Lanczos: dormtr info %d", (int)info);
     cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, (int)b, (int)count,
                 (int)m, 1.0, L->edge, (int)m, L->ritz, (int)m, 0.0, L->bottom,
                 (int)b);
@@ -538,7 +550,7 @@ static phks_status probe(engine *eng, const phks_options *opt, size_t k,
         eng->fraction = 0.02 * (double)m / (double)L.cap;
     }
     if (st == PHKS_OK)
-        st = eig_t(&L, m, 1, m);
+        st = eig_t(&L, m, 1, m, true);
     if (st == PHKS_OK)
         st = ritz_vectors(&L, m, 0, m);
     if (st == PHKS_OK) {
@@ -778,7 +790,7 @@ static phks_status solve(engine *eng, const filter *f, size_t k,
                 if (round == 1 && part == q)
                     break;
                 /* theta[0] is the (q+1)-th largest */
-                st = eig_t(&L, m, m - q, m - q + upto);
+                st = eig_t(&L, m, m - q, m - q + upto, round == 0);
                 if (st == PHKS_OK)
                     st = phks_progress(opt, PHKS_STAGE_EIGEN, eng->fraction);
                 if (st != PHKS_OK)
