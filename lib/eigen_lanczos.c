@@ -136,11 +136,11 @@ static void to_cols(const engine *e, const double *rows, double *cols, size_t n)
     phks_parallel_for(n, e->pm->threads, to_cols_range, &t);
 }
 
-/* out (column-major) = p(B) in (column-major), with three row-major
- * scratch blocks r[0..2]. */
-static phks_status apply_filter(const engine *e, const filter *f,
-                                const double *in, double *out, double *r[3],
-                                size_t n)
+/* p(B) in (column-major), left row-major in one of the three scratch blocks
+ * r[0..2]: *result. */
+static phks_status apply_filter_rows(const engine *e, const filter *f,
+                                     const double *in, double *r[3], size_t n,
+                                     double **result)
 {
     to_rows(e, in, r[0], n);
     /* T_1 = (c x - B x) / e */
@@ -158,8 +158,20 @@ static phks_status apply_filter(const engine *e, const filter *f,
         cur = spare;
         spare = t;
     }
-    to_cols(e, cur, out, n);
+    *result = cur;
     return phks_progress(e->opt, PHKS_STAGE_EIGEN, e->fraction);
+}
+
+/* out (column-major) = p(B) in (column-major). */
+static phks_status apply_filter(const engine *e, const filter *f,
+                                const double *in, double *out, double *r[3],
+                                size_t n)
+{
+    double *rows;
+    phks_status st = apply_filter_rows(e, f, in, r, n, &rows);
+    if (st == PHKS_OK)
+        to_cols(e, rows, out, n);
+    return st;
 }
 
 /* ------------------------------------------------------------- workspace */
@@ -298,42 +310,63 @@ static void project(lanczos *L, size_t lo, size_t m, double *w, long col)
         }
 }
 
-static double smallest_ratio(const lanczos *L, const double *w, const double *before)
+/* One classical Gram-Schmidt pass of the row-major block wr against
+ * V[:, lo:m] (block_project.c); when col >= 0 the coefficients are added
+ * to T (rows lo..m-1 of columns col..col+b-1). */
+static void project_rows(lanczos *L, const engine *e, size_t lo, size_t m,
+                         double *wr, long col)
 {
-    double s = INFINITY;
-    for (size_t j = 0; j < L->b; j++) {
-        double x = norm2(L->n, w + j * L->n);
-        s = fmin(s, before[j] > 0 ? x / before[j] : 1);
-    }
-    return s;
+    size_t n = L->n, b = L->b, cnt = m - lo;
+    phks_block_project(L->v + lo * n, n, cnt, wr, L->c, e->pm->threads, e->avx2);
+    if (col >= 0)
+        for (size_t j = 0; j < b; j++) {
+            double *t = L->t + ((size_t)col + j) * L->room + lo;
+            for (size_t i = 0; i < cnt; i++)
+                t[i] += L->c[i * b + j];
+        }
 }
 
-/* Makes W orthogonal to V[:, 0:m]. The large coefficients of a Lanczos
- * step are those on the last two blocks (the three-term recurrence): they
- * are removed first, with two passes ("twice is enough"). What is left
- * against the whole basis is the slow loss of orthogonality, of the order
- * of the rounding errors, so one pass over the whole basis removes it
- * without cancellation; a second one follows when the pass did shrink a
- * column by more than 1/sqrt(2) (Daniel-Gragg-Kaufman-Stewart). When
- * col >= 0, W is p(B) times the basis block at columns [col, col + b), and
- * the coefficients go to T. With L->local (the probe), only the last two
- * blocks. */
-static void orthogonalise(lanczos *L, size_t m, double *w, long col)
+/* Euclidean norms of the BLOCK columns of the row-major block wr. */
+static void row_block_norms(const double *wr, size_t n, double norm[BLOCK])
 {
-    size_t n = L->n, b = L->b;
+    double sum[BLOCK] = {0};
+    for (size_t i = 0; i < n; i++)
+        for (size_t j = 0; j < BLOCK; j++)
+            sum[j] += wr[i * BLOCK + j] * wr[i * BLOCK + j];
+    for (size_t j = 0; j < BLOCK; j++)
+        norm[j] = sqrt(sum[j]);
+}
+
+/* Makes the row-major block wr orthogonal to V[:, 0:m]. The large
+ * coefficients of a Lanczos step are those on the last two blocks (the
+ * three-term recurrence): they are removed first, with two passes ("twice
+ * is enough"). What is left against the whole basis is the slow loss of
+ * orthogonality, of the order of the rounding errors, so one pass over the
+ * whole basis removes it without cancellation; a second one follows when
+ * the pass did shrink a column by more than 1/sqrt(2) (Daniel-Gragg-
+ * Kaufman-Stewart). When col >= 0, wr is p(B) times the basis block at
+ * columns [col, col + b), and the coefficients go to T. With L->local (the
+ * probe), only the last two blocks. */
+static void orthogonalise(lanczos *L, const engine *e, size_t m, double *wr,
+                          long col)
+{
+    size_t b = L->b;
     if (m == 0)
         return;
     size_t lo = m > 2 * b ? m - 2 * b : 0;
-    project(L, lo, m, w, col);
-    project(L, lo, m, w, col);
+    project_rows(L, e, lo, m, wr, col);
+    project_rows(L, e, lo, m, wr, col);
     if (lo == 0 || L->local)
         return;
-    double before[BLOCK];
+    double before[BLOCK], after[BLOCK];
+    row_block_norms(wr, L->n, before);
+    project_rows(L, e, 0, m, wr, col);
+    row_block_norms(wr, L->n, after);
+    double smallest = INFINITY;
     for (size_t j = 0; j < b; j++)
-        before[j] = norm2(n, w + j * n);
-    project(L, 0, m, w, col);
-    if (smallest_ratio(L, w, before) < 0.7071)
-        project(L, 0, m, w, col);
+        smallest = fmin(smallest, before[j] > 0 ? after[j] / before[j] : 1);
+    if (smallest < 0.7071)
+        project_rows(L, e, 0, m, wr, col);
 }
 
 /* Householder QR of the n x b block w: w becomes Q, r (b x b, column-major)
@@ -503,14 +536,16 @@ typedef struct {
 static phks_status step(lanczos *L, const run_ctx *rc, size_t m, double *r)
 {
     size_t n = L->n, b = L->b;
-    phks_status fst = apply_filter(rc->eng, rc->f, L->v + (m - b) * n, L->w,
-                                   L->rows, n);
+    double *wr, norm[BLOCK], scale = 0;
+    phks_status fst = apply_filter_rows(rc->eng, rc->f, L->v + (m - b) * n,
+                                        L->rows, n, &wr);
     if (fst != PHKS_OK)
         return fst;
-    double scale = 0;
+    row_block_norms(wr, n, norm);
     for (size_t j = 0; j < b; j++)
-        scale = fmax(scale, norm2(n, L->w + j * n));
-    orthogonalise(L, m, L->w, (long)(m - b));
+        scale = fmax(scale, norm[j]);
+    orthogonalise(L, rc->eng, m, wr, (long)(m - b));
+    to_cols(rc->eng, wr, L->w, n);
     return next_block(L, m, r, scale);
 }
 

@@ -238,6 +238,14 @@ void phks_operator_pairs_poly(const phks_operator_pairs *pm, bool avx2,
                               const double *x, const double *z, double *out,
                               double alpha, double gamma, double beta);
 
+/* ---- Gram-Schmidt products (block_project.c) */
+/* C = V^T W, then W -= V C, where V is n x cnt column-major (leading
+ * dimension n), W n x PHKS_PAIR_BLOCK row-major and C cnt x
+ * PHKS_PAIR_BLOCK row-major. Bit-identical for any thread count; avx2 from
+ * phks_operator_pairs_avx2. */
+void phks_block_project(const double *v, size_t n, size_t cnt, double *w,
+                        double *c, unsigned threads, bool avx2);
+
 /* ---- eigen-solvers (eigen_*.c): the k smallest eigenpairs of op's B.
  * values ascending (k), vectors column-major n x k, orthonormal in the
  * plain inner product. */
