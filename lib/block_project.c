@@ -191,3 +191,157 @@ void phks_block_project(const double *v, size_t n, size_t cnt, double *w,
     phks_parallel_for((cnt + 3) / 4, threads, coef_range, &p);
     phks_parallel_for((n + STRETCH - 1) / STRETCH, threads, subtract_range, &p);
 }
+
+/* ------------------------------------------------ Gram matrix, solve */
+
+/* Rows summed per partial Gram matrix: fixed, so that the sum does not
+ * depend on how the stretches are spread over threads. */
+#define GRAM_STRETCH 512
+
+typedef struct {
+    const double *w;
+    double *wout;
+    size_t n;
+    double *parts;        /* B x B per stretch                          */
+    const double *inv;    /* B x B, row-major: R^-1                     */
+    bool avx2;
+} gram_ctx;
+
+static void gram_generic(const double *w, size_t r0, size_t r1, double *part)
+{
+    for (size_t i = r0; i < r1; i++)
+        for (size_t a = 0; a < B; a++)
+            for (size_t c = 0; c < B; c++)
+                part[a * B + c] += w[i * B + a] * w[i * B + c];
+}
+
+#if HAVE_AVX2_KERNEL
+/* Two rows of the Gram matrix at a time, over the stretch's rows (which
+ * stay in the second-level cache between the eight sweeps). */
+__attribute__((target("avx2,fma"))) static void gram_avx2(const double *w,
+                                                           size_t r0, size_t r1,
+                                                           double *part)
+{
+    for (size_t a = 0; a < B; a += 2) {
+        __m256d p0 = _mm256_setzero_pd(), p1 = p0, p2 = p0, p3 = p0;
+        __m256d q0 = p0, q1 = p0, q2 = p0, q3 = p0;
+        for (size_t i = r0; i < r1; i++) {
+            const double *x = w + i * B;
+            const __m256d x0 = _mm256_loadu_pd(x), x1 = _mm256_loadu_pd(x + 4),
+                          x2 = _mm256_loadu_pd(x + 8), x3 = _mm256_loadu_pd(x + 12);
+            __m256d s = _mm256_broadcast_sd(x + a);
+            p0 = _mm256_fmadd_pd(s, x0, p0);
+            p1 = _mm256_fmadd_pd(s, x1, p1);
+            p2 = _mm256_fmadd_pd(s, x2, p2);
+            p3 = _mm256_fmadd_pd(s, x3, p3);
+            s = _mm256_broadcast_sd(x + a + 1);
+            q0 = _mm256_fmadd_pd(s, x0, q0);
+            q1 = _mm256_fmadd_pd(s, x1, q1);
+            q2 = _mm256_fmadd_pd(s, x2, q2);
+            q3 = _mm256_fmadd_pd(s, x3, q3);
+        }
+        double *o = part + a * B;
+        _mm256_storeu_pd(o, p0);
+        _mm256_storeu_pd(o + 4, p1);
+        _mm256_storeu_pd(o + 8, p2);
+        _mm256_storeu_pd(o + 12, p3);
+        _mm256_storeu_pd(o + 16, q0);
+        _mm256_storeu_pd(o + 20, q1);
+        _mm256_storeu_pd(o + 24, q2);
+        _mm256_storeu_pd(o + 28, q3);
+    }
+}
+#endif
+
+static void gram_range(void *ctx, size_t begin, size_t end)
+{
+    const gram_ctx *g = ctx;
+    for (size_t s = begin; s < end; s++) {
+        double *part = g->parts + s * B * B;
+        size_t r0 = s * GRAM_STRETCH;
+        size_t r1 = r0 + GRAM_STRETCH < g->n ? r0 + GRAM_STRETCH : g->n;
+#if HAVE_AVX2_KERNEL
+        if (g->avx2) {
+            gram_avx2(g->w, r0, r1, part);
+            continue;
+        }
+#endif
+        memset(part, 0, B * B * sizeof(double));
+        gram_generic(g->w, r0, r1, part);
+    }
+}
+
+size_t phks_block_gram_parts(size_t n)
+{
+    return (n + GRAM_STRETCH - 1) / GRAM_STRETCH;
+}
+
+void phks_block_gram(const double *w, size_t n, double *parts, double *g,
+                     unsigned threads, bool avx2)
+{
+    gram_ctx c = {w, NULL, n, parts, NULL, avx2};
+    size_t count = phks_block_gram_parts(n);
+    phks_parallel_for(count, threads, gram_range, &c);
+    memset(g, 0, B * B * sizeof(double));
+    for (size_t s = 0; s < count; s++)
+        for (size_t i = 0; i < B * B; i++)
+            g[i] += parts[s * B * B + i];
+}
+
+static void times_generic(const gram_ctx *g, size_t r0, size_t r1)
+{
+    for (size_t i = r0; i < r1; i++) {
+        double *x = g->wout + i * B, y[B] = {0};
+        for (size_t l = 0; l < B; l++)
+            for (size_t j = l; j < B; j++)
+                y[j] += x[l] * g->inv[l * B + j];
+        memcpy(x, y, sizeof y);
+    }
+}
+
+#if HAVE_AVX2_KERNEL
+__attribute__((target("avx2,fma"))) static void times_avx2(const gram_ctx *g,
+                                                            size_t r0, size_t r1)
+{
+    const double *inv = g->inv;
+    for (size_t i = r0; i < r1; i++) {
+        double *x = g->wout + i * B;
+        __m256d y0 = _mm256_setzero_pd(), y1 = y0, y2 = y0, y3 = y0;
+        /* row l of R^-1 is zero left of column l */
+        for (size_t l = 0; l < B; l++) {
+            const __m256d s = _mm256_broadcast_sd(x + l);
+            const double *v = inv + l * B;
+            if (l < 4)
+                y0 = _mm256_fmadd_pd(s, _mm256_loadu_pd(v), y0);
+            if (l < 8)
+                y1 = _mm256_fmadd_pd(s, _mm256_loadu_pd(v + 4), y1);
+            if (l < 12)
+                y2 = _mm256_fmadd_pd(s, _mm256_loadu_pd(v + 8), y2);
+            y3 = _mm256_fmadd_pd(s, _mm256_loadu_pd(v + 12), y3);
+        }
+        _mm256_storeu_pd(x, y0);
+        _mm256_storeu_pd(x + 4, y1);
+        _mm256_storeu_pd(x + 8, y2);
+        _mm256_storeu_pd(x + 12, y3);
+    }
+}
+#endif
+
+static void times_range(void *ctx, size_t begin, size_t end)
+{
+    const gram_ctx *g = ctx;
+#if HAVE_AVX2_KERNEL
+    if (g->avx2) {
+        times_avx2(g, begin, end);
+        return;
+    }
+#endif
+    times_generic(g, begin, end);
+}
+
+void phks_block_times_upper(double *w, size_t n, const double *inv,
+                            unsigned threads, bool avx2)
+{
+    gram_ctx c = {NULL, w, n, NULL, inv, avx2};
+    phks_parallel_for(n, threads, times_range, &c);
+}

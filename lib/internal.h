@@ -245,6 +245,17 @@ void phks_operator_pairs_poly(const phks_operator_pairs *pm, bool avx2,
  * phks_operator_pairs_avx2. */
 void phks_block_project(const double *v, size_t n, size_t cnt, double *w,
                         double *c, unsigned threads, bool avx2);
+/* g = W^T W (PHKS_PAIR_BLOCK^2, full) for the row-major n x
+ * PHKS_PAIR_BLOCK block w, through phks_block_gram_parts(n) partial sums
+ * over fixed stretches of rows (parts holds that many blocks of
+ * PHKS_PAIR_BLOCK^2): bit-identical for any thread count. */
+size_t phks_block_gram_parts(size_t n);
+void phks_block_gram(const double *w, size_t n, double *parts, double *g,
+                     unsigned threads, bool avx2);
+/* W := W U for the row-major block w and U upper triangular
+ * (PHKS_PAIR_BLOCK^2, row-major). */
+void phks_block_times_upper(double *w, size_t n, const double *u,
+                            unsigned threads, bool avx2);
 
 /* ---- eigen-solvers (eigen_*.c): the k smallest eigenpairs of op's B.
  * values ascending (k), vectors column-major n x k, orthonormal in the
