@@ -84,6 +84,64 @@ __attribute__((target("avx2"))) static void distances_avx2(const build_ctx *b,
 }
 #endif
 
+/* y = exp(-x * scale) for x in [0, 64 / scale] (the kernel's arguments:
+ * |w - p|^2 / 4h below cutoff^2 <= 64). */
+static void kernel_generic(const double *x, double scale, double *y, size_t count)
+{
+    for (size_t i = 0; i < count; i++)
+        y[i] = exp(-x[i] * scale);
+}
+
+#if HAVE_AVX2
+/* exp(t) = 2^k exp(r), k = round(t / ln 2), r = t - k ln 2 in two parts
+ * (Cody-Waite), |r| <= ln 2 / 2, exp(r) by its Taylor polynomial of degree
+ * 13 (truncation below 1e-17 relative), Horner with fused multiply-adds:
+ * within 2 units in the last place of glibc's exp over the kernel's range,
+ * at a fraction of its time. */
+__attribute__((target("avx2,fma"))) static void kernel_avx2(const double *x,
+                                                             double scale,
+                                                             double *y,
+                                                             size_t count)
+{
+    static const double coef[14] = {
+        1.0, 1.0, 1.0 / 2, 1.0 / 6, 1.0 / 24, 1.0 / 120, 1.0 / 720,
+        1.0 / 5040, 1.0 / 40320, 1.0 / 362880, 1.0 / 3628800,
+        1.0 / 39916800, 1.0 / 479001600, 1.0 / 6227020800.0};
+    const __m256d s = _mm256_set1_pd(-scale);
+    const __m256d inv_ln2 = _mm256_set1_pd(1.4426950408889634);
+    const __m256d ln2_hi = _mm256_set1_pd(6.93147180369123816490e-01);
+    const __m256d ln2_lo = _mm256_set1_pd(1.90821492927058770002e-10);
+    size_t i = 0;
+    for (; i + 4 <= count; i += 4) {
+        __m256d t = _mm256_mul_pd(_mm256_loadu_pd(x + i), s);
+        __m256d k = _mm256_round_pd(_mm256_mul_pd(t, inv_ln2),
+                                    _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC);
+        __m256d r = _mm256_fnmadd_pd(k, ln2_hi, t);
+        r = _mm256_fnmadd_pd(k, ln2_lo, r);
+        __m256d e = _mm256_set1_pd(coef[13]);
+        for (int j = 12; j >= 0; j--)
+            e = _mm256_fmadd_pd(e, r, _mm256_set1_pd(coef[j]));
+        /* 2^k: k is in [-93, 0], its exponent field is k + 1023 */
+        __m128i k32 = _mm256_cvtpd_epi32(k);
+        __m256i k64 = _mm256_cvtepi32_epi64(k32);
+        __m256i bits = _mm256_slli_epi64(_mm256_add_epi64(k64, _mm256_set1_epi64x(1023)), 52);
+        _mm256_storeu_pd(y + i, _mm256_mul_pd(e, _mm256_castsi256_pd(bits)));
+    }
+    kernel_generic(x + i, scale, y + i, count - i);
+}
+#endif
+
+static void kernel(const build_ctx *b, const double *x, double *y, size_t count)
+{
+#if HAVE_AVX2
+    if (b->avx2) {
+        kernel_avx2(x, b->inv4h, y, count);
+        return;
+    }
+#endif
+    kernel_generic(x, b->inv4h, y, count);
+}
+
 static void distances(const build_ctx *b, const double p[3], size_t lo,
                       size_t hi, double *d2)
 {
@@ -134,8 +192,10 @@ static void scan_row(const build_ctx *b, size_t w)
                     dist2[kept] = dist2[j];
                     kept += dist2[j] < r2;
                 }
+                double weight[CHUNK];
+                kernel(b, dist2, weight, kept);
                 for (size_t j = 0; j < kept; j++) {
-                    double aw = b->parea[near[j]] * exp(-dist2[j] * b->inv4h);
+                    double aw = b->parea[near[j]] * weight[j];
                     density += aw;
                     b->col[out] = g->points[near[j]];
                     b->val[out] = aw;
