@@ -44,21 +44,42 @@ static phks_status solve(const phks_operator_matrix *op, size_t k,
 
 /* Mh^-1/2 scaling, and a sign convention so that results do not depend on
  * which of +phi and -phi a solver happened to return: the entry of largest
- * magnitude (the first such) is positive. */
-static void finish_vectors(phks_spectrum *spec, size_t n, const double *mass)
+ * magnitude (the first such) is positive. Eigenvectors split over threads. */
+typedef struct {
+    double *vectors;
+    size_t n;
+    const double *root;   /* sqrt(mass) */
+} finish_ctx;
+
+static void finish_range(void *ctx, size_t begin, size_t end)
 {
-    for (size_t e = 0; e < spec->count; e++) {
-        double *phi = spec->vectors + e * n;
+    const finish_ctx *f = ctx;
+    for (size_t e = begin; e < end; e++) {
+        double *phi = f->vectors + e * f->n;
         size_t big = 0;
-        for (size_t i = 0; i < n; i++) {
-            phi[i] /= sqrt(mass[i]);
+        for (size_t i = 0; i < f->n; i++) {
+            phi[i] /= f->root[i];
             if (fabs(phi[i]) > fabs(phi[big]))
                 big = i;
         }
         if (phi[big] < 0)
-            for (size_t i = 0; i < n; i++)
+            for (size_t i = 0; i < f->n; i++)
                 phi[i] = -phi[i];
     }
+}
+
+static phks_status finish_vectors(phks_spectrum *spec, size_t n,
+                                  const double *mass, const phks_options *opt)
+{
+    double *root = phks_malloc_array(n, sizeof *root);
+    if (!root)
+        return phks_fail_oom("spectrum");
+    for (size_t i = 0; i < n; i++)
+        root[i] = sqrt(mass[i]);
+    finish_ctx f = {spec->vectors, n, root};
+    phks_parallel_for(spec->count, phks_thread_count(opt), finish_range, &f);
+    phks_free(root);
+    return PHKS_OK;
 }
 
 /* HKS-simp: samples, their operator and eigenpairs, and the extension
@@ -122,8 +143,9 @@ static phks_status compute_simplified(const phks_mesh *mesh,
     phks_operator_release(&op);
     phks_free(area);
     phks_free(sample_xyz);
+    if (st == PHKS_OK)
+        st = finish_vectors(spec, m, sample_mass, opt);
     if (st == PHKS_OK) {
-        finish_vectors(spec, m, sample_mass);
         st = phks_extension_create(spec, mesh, scale, &samples, sample_mass);
         sample_mass = NULL; /* handed over, even on failure */
     }
@@ -192,8 +214,9 @@ phks_status phks_spectrum_compute(const phks_mesh *mesh,
         phks_spectrum_free(spec);
         return st;
     }
-    finish_vectors(spec, n, spec->mass);
-    st = phks_progress(&opt, PHKS_STAGE_EIGEN, 1);
+    st = finish_vectors(spec, n, spec->mass, &opt);
+    if (st == PHKS_OK)
+        st = phks_progress(&opt, PHKS_STAGE_EIGEN, 1);
     if (st != PHKS_OK) {
         phks_spectrum_free(spec);
         return st;
