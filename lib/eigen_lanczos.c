@@ -904,9 +904,10 @@ static phks_status solve(engine *eng, const filter *f, size_t k,
         st = qr(&L, L.v, r, &smallest);
     }
     size_t m = b, last_check = 0;
-    /* filtered Lanczos converges with a basis of about twice q, plain
-     * Lanczos needs several times that */
-    size_t next_check = (f->degree > 1 ? 3 * q / 2 : 2 * q) / b * b;
+    /* filtered Lanczos converges with a basis of 1.55 q to 2.2 q on PSB
+     * meshes (a first check at 1.7 q instead of 1.5 q saved a check on
+     * most of 14 meshes, 4% in all), plain Lanczos needs several times q */
+    size_t next_check = (f->degree > 1 ? 17 * q / 10 : 2 * q) / b * b;
     double last_excess = 0;
     /* The polynomial's accuracy: Ritz residuals of p(B) are relative to
      * its largest value, and the wanted vectors must be accurate to about
