@@ -1,7 +1,7 @@
 /*
  * eigen_lanczos.c - the fast solver: block Lanczos on a Chebyshev
- * polynomial of B, with full re-orthogonalisation, then Rayleigh-Ritz with
- * B itself.
+ * polynomial of B, with full re-orthogonalisation; the converged Ritz
+ * vectors, checked against B itself.
  *
  * Why this shape. B is bounded (spectrum in [0, lmax], lmax ~ 1/tau) and we
  * want its k lowest eigenpairs, which sit in a small fraction of that
@@ -13,30 +13,39 @@
  * and grows fast below a (a just above lambda_k), needs a basis only a
  * little larger than k, at the price of d products per basis vector.
  *
- *  1. A short block Lanczos run on B gives an upper bound on lmax (top Ritz
- *     value plus its residual) and, by Gauss quadrature on the random start
- *     block, an estimate of the eigenvalue count N(lambda), from which the
- *     cut a is chosen so that about k plus a margin eigenvalues lie below.
- *  2. Block Lanczos on p(B) (block BLOCK, classical Gram-Schmidt twice
- *     against the whole basis, BLAS3) until the top k + guard Ritz pairs of
- *     T = V^T p(B) V are converged.
- *  3. Rayleigh-Ritz with B on those Ritz vectors gives the eigenpairs of B,
- *     whose residuals |B x - lambda x| are computed explicitly and must be
- *     below tolerance * |B|. If they are not, Lanczos goes on; if the cut
- *     turned out to lie below lambda_k, the solve restarts with a higher
- *     one (at most three times); if the basis would grow past its cap
- *     (3 (k + guard) + 8 BLOCK), the solve falls back to plain Lanczos on B
- *     (degree 1, basis up to 12 k + 8 BLOCK), and when that does not
- *     converge either, to the dense solver if n <= 16384.
+ *  1. A short block Lanczos run on B (re-orthogonalised locally only) gives
+ *     an upper bound on lmax (top Ritz value plus its residual) and, by
+ *     Gauss quadrature on the random start block, an estimate of the
+ *     eigenvalue count N(lambda), from which the cut a is chosen so that
+ *     about k plus a margin eigenvalues lie below.
+ *  2. Block Lanczos on p(B) (block BLOCK, classical Gram-Schmidt against the
+ *     last two blocks twice and the whole basis once, Cholesky QR twice for
+ *     each new block) until the top k + guard Ritz pairs of T = V^T p(B) V
+ *     are converged (tridiagonal reduction of T and MRRR for the pairs).
+ *  3. The top k Ritz vectors, with their Rayleigh quotients in B, are the
+ *     eigenpairs, whose residuals |B x - lambda x| are computed explicitly
+ *     and must be below tolerance * |B|; where they are not, Rayleigh-Ritz
+ *     with B on the top k + guard Ritz vectors. If that fails too, Lanczos
+ *     goes on; if the cut turned out to lie below lambda_k, the solve
+ *     restarts with a higher one (at most three times); if the basis would
+ *     grow past its cap (3 (k + guard) + 8 BLOCK), the solve falls back to
+ *     plain Lanczos on B (degree 1, basis up to 12 k + 8 BLOCK), and when
+ *     that does not converge either, to the dense solver if n <= 16384.
  *  Meshes too small for a Krylov basis (n < 8 BLOCK, or fewer than
  *  k + guard + 4 BLOCK usable columns, or no room for the probe) go to the
  *  dense solver directly.
  *
- * The operator is applied by a kernel of this file to row-major blocks of
- * BLOCK vectors, fused with the Chebyshev recurrence (one pass over the
- * matrix per degree for the whole block). All work is split over threads in
- * fixed contiguous ranges, so results are bit-identical between runs with
- * the same thread count.
+ * The whole solve runs in the numbering of the operator's pair layout
+ * (operator_pairs.c: the points in Morton order), whose kernel applies B
+ * to row-major blocks of BLOCK vectors fused with the Chebyshev recurrence
+ * (one pass over the matrix per degree for the whole block); the
+ * Gram-Schmidt and QR products take those row-major blocks as they are
+ * (block_project.c). All of these run on the library's threads, each
+ * result entry summed by one thread in a fixed order, so results are
+ * bit-identical between runs and for any value of the threads option (the
+ * BLAS's own thread count being fixed); between products
+ * the solver makes no BLAS call (whose idle threads would compete with its
+ * own), only in the convergence checks and the final Ritz vectors.
  */
 #include "internal.h"
 
