@@ -25,7 +25,9 @@
 
 #include <string.h>
 
-#if defined(__GNUC__) && defined(__x86_64__)
+/* PHKS_NO_SIMD (a compiler flag) builds the portable kernels only, to
+ * test them on machines that have AVX2. */
+#if defined(__GNUC__) && defined(__x86_64__) && !defined(PHKS_NO_SIMD)
 #include <immintrin.h>
 #define HAVE_AVX2_KERNEL 1
 #else
