@@ -234,9 +234,11 @@ typedef struct phks_options {
                                 docs/retrieval.md for the measurements) */
     int32_t box;             /* phks_box: PHKS_BOX_PRINCIPAL             */
     int32_t solver;          /* phks_solver: PHKS_SOLVER_AUTO            */
-    uint32_t threads;        /* worker threads for the operator; 0 = one
-                                per CPU. BLAS threads are left to the
-                                user (OPENBLAS_NUM_THREADS).             */
+    uint32_t threads;        /* worker threads for the operator and the
+                                Lanczos solver's products; 0 = one per
+                                CPU. BLAS threads are left to the user
+                                (OPENBLAS_NUM_THREADS; on a few cores 1
+                                is fastest: docs/benchmarks.md).         */
     double tolerance;        /* eigen-solver: residual |B x - l x| below
                                 tolerance * |B|: 1e-10                   */
     phks_progress_fn progress; /* NULL: no progress reports             */
