@@ -45,23 +45,6 @@
 
 /* ---- results: what a step made, as plain bytes (outside the hook) */
 
-typedef struct bytes {
-    unsigned char *p;
-    size_t n, cap;
-} bytes;
-
-static void put(bytes *b, const void *data, size_t n)
-{
-    if (b->n + n > b->cap) {
-        b->cap = 2 * (b->n + n) + 64;
-        b->p = realloc(b->p, b->cap);
-        REQUIRE(b->p);
-    }
-    if (n)
-        memcpy(b->p + b->n, data, n);
-    b->n += n;
-}
-
 static void put_text(bytes *b, const char *fmt, ...) PHKS_PRINTF(2, 3);
 static void put_text(bytes *b, const char *fmt, ...)
 {

@@ -176,23 +176,6 @@ static void expect_load_fail(const char *what, const void *data, size_t size,
                   what, m, needle);
 }
 
-/* A growing byte buffer. */
-typedef struct bytes {
-    unsigned char *p;
-    size_t n, cap;
-} bytes;
-
-static void put(bytes *b, const void *data, size_t n)
-{
-    if (b->n + n > b->cap) {
-        b->cap = 2 * (b->n + n) + 64;
-        b->p = realloc(b->p, b->cap);
-        ck_assert_ptr_nonnull(b->p);
-    }
-    memcpy(b->p + b->n, data, n);
-    b->n += n;
-}
-
 /* gzip of `zeros` zero bytes, compressed a chunk at a time. */
 static bytes gzip_zeros(size_t zeros)
 {

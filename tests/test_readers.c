@@ -156,23 +156,6 @@ static void expect_two_triangles(const phks_raw_mesh *raw)
         ck_assert_uint_eq(raw->vertex_origin[v], origin[v]);
 }
 
-/* A growing byte buffer for files built by the tests. */
-typedef struct bytes {
-    unsigned char *p;
-    size_t n, cap;
-} bytes;
-
-static void put(bytes *b, const void *data, size_t n)
-{
-    if (b->n + n > b->cap) {
-        b->cap = 2 * (b->n + n) + 64;
-        b->p = realloc(b->p, b->cap);
-        ck_assert_ptr_nonnull(b->p);
-    }
-    memcpy(b->p + b->n, data, n);
-    b->n += n;
-}
-
 static void put_text(bytes *b, const char *s)
 {
     put(b, s, strlen(s));

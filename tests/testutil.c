@@ -99,3 +99,15 @@ void count_free(void *user, void *ptr)
     alloc_live -= ptr != NULL;
     free(ptr);
 }
+
+void put(bytes *b, const void *data, size_t n)
+{
+    if (b->n + n > b->cap) {
+        b->cap = 2 * (b->n + n) + 64;
+        b->p = realloc(b->p, b->cap);
+        REQUIRE(b->p);
+    }
+    if (n)
+        memcpy(b->p + b->n, data, n);
+    b->n += n;
+}

@@ -33,6 +33,15 @@ char *shared_mesh_path(const char *relative);
 /* Uniform random double in [0,1) from a 64-bit state (splitmix64). */
 double test_random(uint64_t *state);
 
+/* A growing byte buffer (plain malloc, outside the library's allocator
+ * hook), for files the tests build and results they compare. */
+typedef struct bytes {
+    unsigned char *p;
+    size_t n, cap;
+} bytes;
+/* Appends n bytes of data to b. */
+void put(bytes *b, const void *data, size_t n);
+
 /* Seconds on the monotonic clock, for timing. */
 double now(void);
 
