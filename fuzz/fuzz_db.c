@@ -14,6 +14,7 @@
  */
 #include "fuzz_common.h"
 
+#include <sqlite3.h>
 #include <unistd.h>
 
 static char path[512];
@@ -26,6 +27,29 @@ static void remove_files(void)
         snprintf(name, sizeof name, "%s%s", path, suffix[i]);
         unlink(name);
     }
+}
+
+/* Whether SQLite's own integrity check finds the file damaged. A file
+ * whose pages are linked twice passes every check a read makes, and then
+ * a write through one table can change another (found by this target: an
+ * add that did not grow the count). Nothing can be promised for such a
+ * file beyond a clean status and no crash, so the count invariants are
+ * waived when, and only when, this says so. */
+static bool damaged(void)
+{
+    sqlite3 *s = NULL;
+    sqlite3_stmt *st = NULL;
+    bool bad = true;
+    if (sqlite3_open_v2(path, &s, SQLITE_OPEN_READONLY, NULL) == SQLITE_OK &&
+        sqlite3_prepare_v2(s, "PRAGMA integrity_check", -1, &st, NULL) ==
+            SQLITE_OK &&
+        sqlite3_step(st) == SQLITE_ROW) {
+        const unsigned char *text = sqlite3_column_text(st, 0);
+        bad = !text || strcmp((const char *)text, "ok") != 0;
+    }
+    sqlite3_finalize(st);
+    sqlite3_close(s);
+    return bad;
 }
 
 /* A compatible query signature: two features with the default options. */
@@ -137,11 +161,11 @@ static void exercise(phks_db *db, const phks_signature *query)
     }
     FUZZ_CHECK(id > 0);
     size_t more = count_of(db);
-    FUZZ_CHECK(more == count + 1 || more == (size_t)-1);
+    FUZZ_CHECK(more == count + 1 || more == (size_t)-1 || damaged());
     st = phks_db_remove(db, id);
     if (st == PHKS_OK) {
         size_t back = count_of(db);
-        FUZZ_CHECK(back == count || back == (size_t)-1);
+        FUZZ_CHECK(back == count || back == (size_t)-1 || damaged());
     } else {
         fuzz_check_failure(st);
     }
