@@ -498,6 +498,51 @@ static int by_heat(const void *pa, const void *pb)
     return a->vertex < b->vertex ? -1 : a->vertex > b->vertex;
 }
 
+/* Whether some point j of the grid (positions xyz) within squared
+ * distance r2 of p, in p's cell or the 26 around it (the cells are at
+ * least the radius wide), satisfies pred(ctx, j). */
+static bool near_one(const phks_grid *g, const double *xyz, const double *p,
+                     double r2, bool (*pred)(const void *, uint32_t),
+                     const void *ctx)
+{
+    size_t cc[3];
+    cell_coords(g, p, cc);
+    for (size_t z = cc[2] ? cc[2] - 1 : 0; z <= cc[2] + 1 && z < g->dims[2]; z++)
+        for (size_t y = cc[1] ? cc[1] - 1 : 0; y <= cc[1] + 1 && y < g->dims[1];
+             y++) {
+            size_t x0 = cc[0] ? cc[0] - 1 : 0;
+            size_t x1 = cc[0] + 1 < g->dims[0] ? cc[0] + 1 : g->dims[0] - 1;
+            size_t a = g->cell_start[cell_index(g, x0, y, z)];
+            size_t b = g->cell_start[cell_index(g, x1, y, z) + 1];
+            for (size_t q = a; q < b; q++) {
+                uint32_t j = g->points[q];
+                if (pred(ctx, j) && dist2(p, xyz + 3 * (size_t)j) < r2)
+                    return true;
+            }
+        }
+    return false;
+}
+
+static bool is_kept(const void *keep, uint32_t j)
+{
+    return ((const unsigned char *)keep)[j] != 0;
+}
+
+typedef struct above_ctx {
+    const candidates *c;
+    const double *heat;
+    uint32_t i;
+} above_ctx;
+
+/* Candidate j is hotter than i (ties: the lower vertex). */
+static bool is_above(const void *ctx, uint32_t j)
+{
+    const above_ctx *a = ctx;
+    const double *h = a->heat;
+    return h[j] > h[a->i] ||
+           (h[j] == h[a->i] && a->c->vertex[j] < a->c->vertex[a->i]);
+}
+
 /* Marks in keep[] the candidates of the packing of radius rho visited in
  * `order`; *count gets how many are kept. */
 static phks_status pack(const candidates *c, const ranked *order, double rho,
@@ -513,26 +558,7 @@ static phks_status pack(const candidates *c, const ranked *order, double rho,
     for (size_t k = 0; k < c->count; k++) {
         uint32_t i = order[k].index;
         const double *p = c->xyz + 3 * (size_t)i;
-        size_t cc[3];
-        cell_coords(&g, p, cc);
-        bool free_spot = true;
-        for (size_t z = cc[2] ? cc[2] - 1 : 0;
-             free_spot && z <= cc[2] + 1 && z < g.dims[2]; z++)
-            for (size_t y = cc[1] ? cc[1] - 1 : 0;
-                 free_spot && y <= cc[1] + 1 && y < g.dims[1]; y++) {
-                size_t x0 = cc[0] ? cc[0] - 1 : 0;
-                size_t x1 = cc[0] + 1 < g.dims[0] ? cc[0] + 1 : g.dims[0] - 1;
-                size_t a = g.cell_start[cell_index(&g, x0, y, z)];
-                size_t b = g.cell_start[cell_index(&g, x1, y, z) + 1];
-                for (size_t q = a; q < b; q++) {
-                    uint32_t j = g.points[q];
-                    if (keep[j] && dist2(p, c->xyz + 3 * (size_t)j) < rho2) {
-                        free_spot = false;
-                        break;
-                    }
-                }
-            }
-        if (free_spot) {
+        if (!near_one(&g, c->xyz, p, rho2, is_kept, keep)) {
             keep[i] = 1;
             kept++;
         }
@@ -556,28 +582,8 @@ static phks_status mark_maxima(const candidates *c, const double *heat,
         if (!keep[i])
             continue;
         const double *p = c->xyz + 3 * i;
-        size_t cc[3];
-        cell_coords(&g, p, cc);
-        bool maximum = true;
-        for (size_t z = cc[2] ? cc[2] - 1 : 0;
-             maximum && z <= cc[2] + 1 && z < g.dims[2]; z++)
-            for (size_t y = cc[1] ? cc[1] - 1 : 0;
-                 maximum && y <= cc[1] + 1 && y < g.dims[1]; y++) {
-                size_t x0 = cc[0] ? cc[0] - 1 : 0;
-                size_t x1 = cc[0] + 1 < g.dims[0] ? cc[0] + 1 : g.dims[0] - 1;
-                size_t a = g.cell_start[cell_index(&g, x0, y, z)];
-                size_t b = g.cell_start[cell_index(&g, x1, y, z) + 1];
-                for (size_t q = a; q < b; q++) {
-                    uint32_t j = g.points[q];
-                    bool above = heat[j] > heat[i] ||
-                                 (heat[j] == heat[i] && c->vertex[j] < c->vertex[i]);
-                    if (above && dist2(p, c->xyz + 3 * (size_t)j) < r2) {
-                        maximum = false;
-                        break;
-                    }
-                }
-            }
-        keep[i] = maximum ? 2 : 1;
+        const above_ctx ctx = {c, heat, (uint32_t)i};
+        keep[i] = near_one(&g, c->xyz, p, r2, is_above, &ctx) ? 1 : 2;
     }
     phks_grid_release(&g);
     return PHKS_OK;
