@@ -316,6 +316,13 @@ bool phks_options_comparable(const phks_options *a, const phks_options *b);
  * chunks on worker threads (falls back to the calling thread alone). */
 typedef void (*phks_range_fn)(void *ctx, size_t begin, size_t end);
 void phks_parallel_for(size_t n, unsigned threads, phks_range_fn fn, void *ctx);
+/* Keeps threads - 1 workers for the loops this thread starts until
+ * phks_team_leave (parallel.c says why). NULL, which leave accepts, when a
+ * team is entered on this thread already, threads <= 1, or nothing could
+ * be started: the loops then create their threads as they go. */
+typedef struct phks_team phks_team;
+phks_team *phks_team_enter(unsigned threads);
+void phks_team_leave(phks_team *team);
 /* threads option resolved: 0 means the number of online CPUs. */
 unsigned phks_thread_count(const phks_options *opt);
 /* Runs fn(ctx, begin, end) over [0, n) in `batches` consecutive batches,

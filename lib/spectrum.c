@@ -154,19 +154,12 @@ static phks_status compute_simplified(const phks_mesh *mesh,
     return st;
 }
 
-phks_status phks_spectrum_compute(const phks_mesh *mesh,
-                                  const phks_options *options,
-                                  phks_spectrum **out)
+/* phks_spectrum_compute on resolved options. */
+static phks_status compute(const phks_mesh *mesh, const phks_options *options,
+                           phks_spectrum **out)
 {
-    if (out)
-        *out = NULL;
-    if (!mesh || !out)
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
-                         "phks_spectrum_compute: NULL argument");
-    phks_options opt;
-    phks_status st = phks_options_resolve(options, &opt);
-    if (st != PHKS_OK)
-        return st;
+    phks_options opt = *options;
+    phks_status st;
     if (phks_simplify_applies(&opt, mesh->vertex_count)) {
         phks_spectrum *spec = phks_calloc(1, sizeof *spec);
         if (!spec)
@@ -223,6 +216,25 @@ phks_status phks_spectrum_compute(const phks_mesh *mesh,
     }
     *out = spec;
     return PHKS_OK;
+}
+
+phks_status phks_spectrum_compute(const phks_mesh *mesh,
+                                  const phks_options *options,
+                                  phks_spectrum **out)
+{
+    if (out)
+        *out = NULL;
+    if (!mesh || !out)
+        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+                         "phks_spectrum_compute: NULL argument");
+    phks_options opt;
+    phks_status st = phks_options_resolve(options, &opt);
+    if (st != PHKS_OK)
+        return st;
+    phks_team *team = phks_team_enter(phks_thread_count(&opt));
+    st = compute(mesh, &opt, out);
+    phks_team_leave(team);
+    return st;
 }
 
 size_t phks_spectrum_count(const phks_spectrum *s) { return s ? s->count : 0; }

@@ -12,6 +12,9 @@
  * and remove an entry while the others query, whose scores are far worse
  * than any other so it never enters the hits compared.
  *
+ * The library's worker team, which carries the loops of one computation,
+ * keeps each loop's chunks and survives a loop started from inside one.
+ *
  * CI runs this file under ThreadSanitizer too (README: build-tsan), with
  * OPENBLAS_NUM_THREADS=1 as in every test (OpenBLAS and LAPACK are not
  * instrumented).
@@ -322,12 +325,81 @@ START_TEST(eight_threads_agree_with_one)
 }
 END_TEST
 
+/* ---- the library's worker team (parallel.c) */
+
+#define TEAM_N 1000
+#define TEAM_THREADS 4
+
+typedef struct {
+    int visits[TEAM_N];
+    size_t begin[TEAM_THREADS], end[TEAM_THREADS];
+    int nested[TEAM_N];
+} team_log;
+
+static void nested_range(void *ctx, size_t begin, size_t end)
+{
+    team_log *log = ctx;
+    for (size_t i = begin; i < end; i++)
+        log->nested[i]++;
+}
+
+/* Records its chunk; the first chunk also runs a loop of its own. */
+static void logged_range(void *ctx, size_t begin, size_t end)
+{
+    team_log *log = ctx;
+    for (size_t i = begin; i < end; i++)
+        log->visits[i]++;
+    size_t t = begin * TEAM_THREADS / TEAM_N;
+    log->begin[t] = begin;
+    log->end[t] = end;
+    if (begin == 0)
+        phks_parallel_for(TEAM_N, TEAM_THREADS, nested_range, log);
+}
+
+/* With a team entered, every loop still covers each index once in the
+ * chunks it has without a team (n t / threads .. n (t + 1) / threads),
+ * a loop run from inside a chunk (the team busy) completes, and a second
+ * enter on the same thread gives no team. */
+START_TEST(team_loops_keep_their_chunks)
+{
+    phks_team *team = phks_team_enter(TEAM_THREADS);
+    ck_assert_ptr_nonnull(team);
+    ck_assert_ptr_null(phks_team_enter(TEAM_THREADS));
+    for (int round = 0; round < 50; round++) {
+        static team_log log;
+        memset(&log, 0, sizeof log);
+        phks_parallel_for(TEAM_N, TEAM_THREADS, logged_range, &log);
+        for (size_t i = 0; i < TEAM_N; i++) {
+            ck_assert_int_eq(log.visits[i], 1);
+            ck_assert_int_eq(log.nested[i], 1);
+        }
+        for (size_t t = 0; t < TEAM_THREADS; t++) {
+            ck_assert_uint_eq(log.begin[t], TEAM_N * t / TEAM_THREADS);
+            ck_assert_uint_eq(log.end[t], TEAM_N * (t + 1) / TEAM_THREADS);
+        }
+        /* fewer chunks than workers, and a loop of one */
+        memset(&log, 0, sizeof log);
+        phks_parallel_for(2, TEAM_THREADS, nested_range, &log);
+        phks_parallel_for(1, TEAM_THREADS, nested_range, &log);
+        ck_assert_int_eq(log.nested[0], 2);
+        ck_assert_int_eq(log.nested[1], 1);
+    }
+    phks_team_leave(team);
+    /* and a new team after the first has left */
+    team = phks_team_enter(2);
+    ck_assert_ptr_nonnull(team);
+    phks_team_leave(team);
+    phks_team_leave(NULL);
+}
+END_TEST
+
 int main(void)
 {
     Suite *s = suite_create("threads");
     TCase *c = tcase_create("threads");
     tcase_set_timeout(c, 600);
     tcase_add_test(c, eight_threads_agree_with_one);
+    tcase_add_test(c, team_loops_keep_their_chunks);
     suite_add_tcase(s, c);
     return run_suite(s);
 }
