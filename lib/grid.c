@@ -1,7 +1,8 @@
 /*
  * grid.c - a uniform grid of cubic cells for fixed-radius neighbour
  * queries: with the cell as large as the radius, the neighbours of a point
- * lie in its own cell and the 26 around it.
+ * lie in its own cell and the 26 around it, which are 9 rows of 3 cells
+ * consecutive in the cell order, so 9 stretches of the sorted points.
  */
 #include "internal.h"
 
@@ -19,13 +20,34 @@ void phks_grid_release(phks_grid *g)
     g->points = NULL;
 }
 
-static size_t cell_of(const phks_grid *g, const double *p, double scale)
+void phks_grid_cell(const phks_grid *g, const double p[3], size_t c[3])
 {
-    size_t c[3];
     for (int d = 0; d < 3; d++) {
-        double x = floor((p[d] * scale - g->origin[d]) / g->cell);
+        double x = floor((p[d] - g->origin[d]) / g->cell);
         c[d] = x < 0 ? 0 : x >= (double)g->dims[d] ? g->dims[d] - 1 : (size_t)x;
     }
+}
+
+size_t phks_grid_neighbourhood(const phks_grid *g, const size_t c[3],
+                               size_t range[9][2])
+{
+    size_t count = 0;
+    size_t x0 = c[0] ? c[0] - 1 : 0, x1 = c[0] + 1 < g->dims[0] ? c[0] + 1 : c[0];
+    for (size_t z = c[2] ? c[2] - 1 : 0; z <= c[2] + 1 && z < g->dims[2]; z++)
+        for (size_t y = c[1] ? c[1] - 1 : 0; y <= c[1] + 1 && y < g->dims[1]; y++) {
+            size_t row = (z * g->dims[1] + y) * g->dims[0];
+            range[count][0] = g->cell_start[row + x0];
+            range[count][1] = g->cell_start[row + x1 + 1];
+            count++;
+        }
+    return count;
+}
+
+static size_t cell_of(const phks_grid *g, const double *xyz, double scale)
+{
+    double p[3] = {xyz[0] * scale, xyz[1] * scale, xyz[2] * scale};
+    size_t c[3];
+    phks_grid_cell(g, p, c);
     return (c[2] * g->dims[1] + c[1]) * g->dims[0] + c[0];
 }
 

@@ -158,6 +158,13 @@ typedef struct phks_grid {
 phks_status phks_grid_build(const double *xyz, size_t n, double scale,
                             double cell, phks_grid *grid);
 void phks_grid_release(phks_grid *grid);
+/* The cell of the (scaled) point p, clamped to the grid. */
+void phks_grid_cell(const phks_grid *grid, const double p[3], size_t c[3]);
+/* The points of cell c and the 26 around it as ranges [first, last) of
+ * grid->points, in a fixed order (z, then y; x ascending within each):
+ * returns how many ranges (at most 9, fewer at the grid's faces). */
+size_t phks_grid_neighbourhood(const phks_grid *grid, const size_t c[3],
+                               size_t range[9][2]);
 
 /* ---- boundary proximity (boundary.c) */
 /* distance[v] = straight-line distance from vertex v to the nearest vertex

@@ -166,45 +166,41 @@ static void scan_row(const build_ctx *b, size_t w)
     const phks_grid *g = b->grid;
     const double r2 = b->radius2;
     double p[3];
-    size_t c[3];
-    for (int d = 0; d < 3; d++) {
+    size_t c[3], range[9][2];
+    for (int d = 0; d < 3; d++)
         p[d] = b->xyz[3 * w + d] * b->scale;
-        double x = floor((p[d] - g->origin[d]) / g->cell);
-        c[d] = x < 0 ? 0 : x >= (double)g->dims[d] ? g->dims[d] - 1 : (size_t)x;
-    }
+    phks_grid_cell(g, p, c);
+    size_t runs = phks_grid_neighbourhood(g, c, range);
     size_t count = 0, out = b->fill ? b->row_start[w] : 0;
     double density = 0;
-    size_t x0 = c[0] ? c[0] - 1 : 0, x1 = c[0] + 1 < g->dims[0] ? c[0] + 1 : c[0];
-    for (size_t z = c[2] ? c[2] - 1 : 0; z <= c[2] + 1 && z < g->dims[2]; z++)
-        for (size_t y = c[1] ? c[1] - 1 : 0; y <= c[1] + 1 && y < g->dims[1]; y++) {
-            size_t run = (z * g->dims[1] + y) * g->dims[0];
-            size_t lo = g->cell_start[run + x0], hi = g->cell_start[run + x1 + 1];
-            for (size_t first = lo; first < hi; first += CHUNK) {
-                size_t last = hi - first > CHUNK ? first + CHUNK : hi, kept = 0;
-                uint32_t near[CHUNK];
-                double dist2[CHUNK];
-                distances(b, p, first, last, dist2);
-                if (!b->fill) {
-                    for (size_t j = 0; j < last - first; j++)
-                        count += dist2[j] < r2;
-                    continue;
-                }
-                for (size_t j = 0; j < last - first; j++) {
-                    near[kept] = (uint32_t)(first + j);
-                    dist2[kept] = dist2[j];
-                    kept += dist2[j] < r2;
-                }
-                double weight[CHUNK];
-                kernel(b, dist2, weight, kept);
-                for (size_t j = 0; j < kept; j++) {
-                    double aw = b->parea[near[j]] * weight[j];
-                    density += aw;
-                    b->col[out] = g->points[near[j]];
-                    b->val[out] = aw;
-                    out++;
-                }
+    for (size_t r = 0; r < runs; r++) {
+        size_t lo = range[r][0], hi = range[r][1];
+        for (size_t first = lo; first < hi; first += CHUNK) {
+            size_t last = hi - first > CHUNK ? first + CHUNK : hi, kept = 0;
+            uint32_t near[CHUNK];
+            double dist2[CHUNK];
+            distances(b, p, first, last, dist2);
+            if (!b->fill) {
+                for (size_t j = 0; j < last - first; j++)
+                    count += dist2[j] < r2;
+                continue;
+            }
+            for (size_t j = 0; j < last - first; j++) {
+                near[kept] = (uint32_t)(first + j);
+                dist2[kept] = dist2[j];
+                kept += dist2[j] < r2;
+            }
+            double weight[CHUNK];
+            kernel(b, dist2, weight, kept);
+            for (size_t j = 0; j < kept; j++) {
+                double aw = b->parea[near[j]] * weight[j];
+                density += aw;
+                b->col[out] = g->points[near[j]];
+                b->val[out] = aw;
+                out++;
             }
         }
+    }
     if (b->fill)
         b->density[w] = density;
     else

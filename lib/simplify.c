@@ -109,14 +109,6 @@ void phks_samples_release(phks_samples *s)
  * Grid helpers (cells as grid.c buckets them)
  * --------------------------------------------------------------------- */
 
-static void cell_coords(const phks_grid *g, const double *p, size_t c[3])
-{
-    for (int d = 0; d < 3; d++) {
-        double x = floor((p[d] - g->origin[d]) / g->cell);
-        c[d] = x < 0 ? 0 : x >= (double)g->dims[d] ? g->dims[d] - 1 : (size_t)x;
-    }
-}
-
 static size_t cell_index(const phks_grid *g, size_t x, size_t y, size_t z)
 {
     return (z * g->dims[1] + y) * g->dims[0] + x;
@@ -240,31 +232,26 @@ static void kernel_sums(const kernel_points *kp, const double p[3],
                         const double *coef, bool squared, double *sum0,
                         double *sum2)
 {
-    const phks_grid *g = &kp->grid;
     double e[SUM_CHUNK], d2[SUM_CHUNK];
-    size_t c[3];
-    cell_coords(g, p, c);
+    size_t c[3], range[9][2];
+    phks_grid_cell(&kp->grid, p, c);
+    size_t runs = phks_grid_neighbourhood(&kp->grid, c, range);
     double s0 = 0, s2 = 0;
-    for (size_t z = c[2] ? c[2] - 1 : 0; z <= c[2] + 1 && z < g->dims[2]; z++)
-        for (size_t y = c[1] ? c[1] - 1 : 0; y <= c[1] + 1 && y < g->dims[1]; y++) {
-            size_t x0 = c[0] ? c[0] - 1 : 0;
-            size_t x1 = c[0] + 1 < g->dims[0] ? c[0] + 1 : g->dims[0] - 1;
-            /* Cells x0..x1 of a row are consecutive in grid order. */
-            size_t a = g->cell_start[cell_index(g, x0, y, z)];
-            size_t b = g->cell_start[cell_index(g, x1, y, z) + 1];
-            for (size_t lo = a; lo < b; lo += SUM_CHUNK) {
-                size_t len = b - lo < SUM_CHUNK ? b - lo : SUM_CHUNK;
-                phks_kernel_row(kp->x + lo, kp->y + lo, kp->z + lo, len, p,
-                                kp->r2, kp->inv4h, e, d2);
-                const double *cf = coef + lo;
-                for (size_t j = 0; j < len; j++) {
-                    double w = cf[j] * (squared ? e[j] * e[j] : e[j]);
-                    s0 += w;
-                    if (sum2)
-                        s2 += w * d2[j];
-                }
+    for (size_t r = 0; r < runs; r++) {
+        size_t a = range[r][0], b = range[r][1];
+        for (size_t lo = a; lo < b; lo += SUM_CHUNK) {
+            size_t len = b - lo < SUM_CHUNK ? b - lo : SUM_CHUNK;
+            phks_kernel_row(kp->x + lo, kp->y + lo, kp->z + lo, len, p,
+                            kp->r2, kp->inv4h, e, d2);
+            const double *cf = coef + lo;
+            for (size_t j = 0; j < len; j++) {
+                double w = cf[j] * (squared ? e[j] * e[j] : e[j]);
+                s0 += w;
+                if (sum2)
+                    s2 += w * d2[j];
             }
         }
+    }
     *sum0 = s0;
     if (sum2)
         *sum2 = s2;
@@ -505,20 +492,14 @@ static bool near_one(const phks_grid *g, const double *xyz, const double *p,
                      double r2, bool (*pred)(const void *, uint32_t),
                      const void *ctx)
 {
-    size_t cc[3];
-    cell_coords(g, p, cc);
-    for (size_t z = cc[2] ? cc[2] - 1 : 0; z <= cc[2] + 1 && z < g->dims[2]; z++)
-        for (size_t y = cc[1] ? cc[1] - 1 : 0; y <= cc[1] + 1 && y < g->dims[1];
-             y++) {
-            size_t x0 = cc[0] ? cc[0] - 1 : 0;
-            size_t x1 = cc[0] + 1 < g->dims[0] ? cc[0] + 1 : g->dims[0] - 1;
-            size_t a = g->cell_start[cell_index(g, x0, y, z)];
-            size_t b = g->cell_start[cell_index(g, x1, y, z) + 1];
-            for (size_t q = a; q < b; q++) {
-                uint32_t j = g->points[q];
-                if (pred(ctx, j) && dist2(p, xyz + 3 * (size_t)j) < r2)
-                    return true;
-            }
+    size_t c[3], range[9][2];
+    phks_grid_cell(g, p, c);
+    size_t runs = phks_grid_neighbourhood(g, c, range);
+    for (size_t r = 0; r < runs; r++)
+        for (size_t q = range[r][0]; q < range[r][1]; q++) {
+            uint32_t j = g->points[q];
+            if (pred(ctx, j) && dist2(p, xyz + 3 * (size_t)j) < r2)
+                return true;
         }
     return false;
 }
@@ -651,7 +632,7 @@ static void nearest_rows(void *ctx, size_t begin, size_t end)
     for (size_t v = begin; v < end; v++) {
         const double *p = nc->xyz + 3 * v;
         size_t c[3];
-        cell_coords(g, p, c);
+        phks_grid_cell(g, p, c);
         double best = INFINITY;
         uint32_t who = UINT32_MAX;
         /* Rings of cells at Chebyshev distance k: a sample in ring k + 1 is
