@@ -158,10 +158,11 @@ START_TEST(kernel_numerics_match_libm)
 }
 END_TEST
 
-/* Given the mesh's vertices and vertex areas, the operator of a point set
- * is bit for bit the mesh's operator, for both operator kinds; unit gains
- * change nothing. */
-START_TEST(point_operator_is_the_mesh_operator)
+/* The gains of a point operator: unit gains give bit for bit the operator
+ * without gains (both operator kinds), and with the literal operator
+ * (mass = area) random gains g scale every off-diagonal entry of
+ * B = M^-1/2 S M^-1/2 by sqrt(g_p g_q), as the kernel K_pq is scaled. */
+START_TEST(point_operator_gains_scale_the_kernel)
 {
     phks_mesh *m = creature(SHAPE_HAND, 1);
     size_t n = phks_mesh_vertex_count(m);
@@ -172,36 +173,54 @@ START_TEST(point_operator_is_the_mesh_operator)
         double scale;
         ck_assert_int_eq(phks_unit_box_scale(m, PHKS_BOX_PRINCIPAL, &scale), PHKS_OK);
         double *area = malloc(n * sizeof *area), *ones = malloc(n * sizeof *ones);
+        double *gain = malloc(n * sizeof *gain);
         ck_assert_ptr_nonnull(area);
         ck_assert_ptr_nonnull(ones);
+        ck_assert_ptr_nonnull(gain);
         phks_vertex_areas(m, scale, area);
-        for (size_t i = 0; i < n; i++)
+        uint64_t state = 7;
+        for (size_t i = 0; i < n; i++) {
             ones[i] = 1;
+            state = state * 6364136223846793005u + 1442695040888963407u;
+            gain[i] = 0.5 + (double)(state >> 11) / 9007199254740992.0;
+        }
+        const double *xyz = phks_mesh_vertices(m);
         phks_operator_matrix a, b, c;
-        ck_assert_int_eq(phks_operator_build(m, &o, &a), PHKS_OK);
-        ck_assert_int_eq(phks_point_operator_build(phks_mesh_vertices(m), n, scale,
-                                                   area, NULL, &o, 0, 1, &b),
-                         PHKS_OK);
-        ck_assert_int_eq(phks_point_operator_build(phks_mesh_vertices(m), n, scale,
-                                                   area, ones, &o, 0, 1, &c),
-                         PHKS_OK);
-        const phks_operator_matrix *ops[2] = {&b, &c};
-        for (int k = 0; k < 2; k++) {
-            const phks_operator_matrix *q = ops[k];
-            ck_assert_uint_eq(q->n, a.n);
-            ck_assert_int_eq(memcmp(q->row_start, a.row_start,
+        ck_assert_int_eq(phks_point_operator_build(xyz, n, scale, area, NULL, &o,
+                                                   0, 1, &a), PHKS_OK);
+        ck_assert_int_eq(phks_point_operator_build(xyz, n, scale, area, ones, &o,
+                                                   0, 1, &b), PHKS_OK);
+        ck_assert_int_eq(phks_point_operator_build(xyz, n, scale, area, gain, &o,
+                                                   0, 1, &c), PHKS_OK);
+        size_t nnz = a.row_start[n];
+        ck_assert_int_eq(memcmp(b.row_start, a.row_start,
+                                (n + 1) * sizeof *a.row_start), 0);
+        ck_assert_int_eq(memcmp(b.col, a.col, nnz * sizeof *a.col), 0);
+        ck_assert_int_eq(memcmp(b.val, a.val, nnz * sizeof *a.val), 0);
+        ck_assert_int_eq(memcmp(b.mass, a.mass, n * sizeof *a.mass), 0);
+        ck_assert(b.norm_bound == a.norm_bound);
+        if (kind == PHKS_OPERATOR_LITERAL) {
+            ck_assert_int_eq(memcmp(c.row_start, a.row_start,
                                     (n + 1) * sizeof *a.row_start), 0);
-            size_t nnz = a.row_start[n];
-            ck_assert_int_eq(memcmp(q->col, a.col, nnz * sizeof *a.col), 0);
-            ck_assert_int_eq(memcmp(q->val, a.val, nnz * sizeof *a.val), 0);
-            ck_assert_int_eq(memcmp(q->mass, a.mass, n * sizeof *a.mass), 0);
-            ck_assert(q->norm_bound == a.norm_bound);
+            ck_assert_int_eq(memcmp(c.col, a.col, nnz * sizeof *a.col), 0);
+            size_t off = 0;
+            for (size_t w = 0; w < n; w++)
+                for (size_t e = a.row_start[w]; e < a.row_start[w + 1]; e++) {
+                    size_t p = a.col[e];
+                    if (p == w)
+                        continue;
+                    double want = a.val[e] * sqrt(gain[w] * gain[p]);
+                    REQUIRE(fabs(c.val[e] - want) <= 1e-12 * fabs(want));
+                    off++;
+                }
+            ck_assert_uint_gt(off, n);
         }
         phks_operator_release(&a);
         phks_operator_release(&b);
         phks_operator_release(&c);
         free(area);
         free(ones);
+        free(gain);
     }
     phks_mesh_free(m);
 }
@@ -686,7 +705,7 @@ int main(void)
     tcase_set_timeout(c, 900);
     tcase_add_test(c, bad_simplify_options_are_refused);
     tcase_add_test(c, kernel_numerics_match_libm);
-    tcase_add_test(c, point_operator_is_the_mesh_operator);
+    tcase_add_test(c, point_operator_gains_scale_the_kernel);
     tcase_add_test(c, heat_diagonal_matches_dense);
     tcase_add_test(c, samples_cover_the_mesh_and_carry_its_area);
     tcase_add_test(c, a_separate_component_gets_samples);
