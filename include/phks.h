@@ -236,7 +236,9 @@ typedef struct phks_options {
     int32_t solver;          /* phks_solver: PHKS_SOLVER_AUTO            */
     uint32_t threads;        /* worker threads for the operator and the
                                 Lanczos solver's products; 0 = one per
-                                CPU. BLAS threads are left to the user
+                                CPU. Started by each computation and
+                                joined before it returns. BLAS threads
+                                are left to the user
                                 (OPENBLAS_NUM_THREADS; on a few cores 1
                                 is fastest: docs/benchmarks.md).         */
     double tolerance;        /* eigen-solver: residual |B x - l x| below
