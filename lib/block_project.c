@@ -12,17 +12,10 @@
  * on the thread count.
  */
 #include "internal.h"
+#include "simd.h"
 
 #include <string.h>
 
-/* PHKS_NO_SIMD (a compiler flag) builds the portable kernels only, to
- * test them on machines that have AVX2. */
-#if defined(__GNUC__) && defined(__x86_64__) && !defined(PHKS_NO_SIMD)
-#include <immintrin.h>
-#define HAVE_AVX2_KERNEL 1
-#else
-#define HAVE_AVX2_KERNEL 0
-#endif
 
 #define B PHKS_PAIR_BLOCK
 /* Rows of W per stretch: 128 rows of 16 doubles are 16 KB. */
@@ -55,7 +48,7 @@ static void coef_generic(const project_ctx *p, size_t j0, size_t j1)
     }
 }
 
-#if HAVE_AVX2_KERNEL
+#if PHKS_HAVE_AVX2
 __attribute__((target("avx2,fma"))) static void coef_avx2(const project_ctx *p,
                                                            size_t j0, size_t j1)
 {
@@ -106,7 +99,7 @@ static void coef_range(void *ctx, size_t begin, size_t end)
     const project_ctx *p = ctx;
     /* units are quads of columns; the last may be shorter */
     size_t j0 = 4 * begin, j1 = 4 * end < p->cnt ? 4 * end : p->cnt;
-#if HAVE_AVX2_KERNEL
+#if PHKS_HAVE_AVX2
     if (p->avx2) {
         size_t full = j0 + (j1 - j0) / 4 * 4;
         coef_avx2(p, j0, full);
@@ -131,7 +124,7 @@ static void subtract_generic(const project_ctx *p, size_t r0, size_t r1,
     }
 }
 
-#if HAVE_AVX2_KERNEL
+#if PHKS_HAVE_AVX2
 __attribute__((target("avx2,fma"))) static void subtract_avx2(const project_ctx *p,
                                                                size_t r0, size_t r1,
                                                                size_t cnt)
@@ -174,7 +167,7 @@ static void subtract_range(void *ctx, size_t begin, size_t end)
     /* units are stretches of rows */
     for (size_t s = begin; s < end; s++) {
         size_t r0 = s * STRETCH, r1 = r0 + STRETCH < p->n ? r0 + STRETCH : p->n;
-#if HAVE_AVX2_KERNEL
+#if PHKS_HAVE_AVX2
         if (p->avx2) {
             size_t full = p->cnt / 4 * 4;
             subtract_avx2(p, r0, r1, full);
@@ -217,7 +210,7 @@ static void gram_generic(const double *w, size_t r0, size_t r1, double *part)
                 part[a * B + c] += w[i * B + a] * w[i * B + c];
 }
 
-#if HAVE_AVX2_KERNEL
+#if PHKS_HAVE_AVX2
 /* Two rows of the Gram matrix at a time, over the stretch's rows (which
  * stay in the second-level cache between the eight sweeps). */
 __attribute__((target("avx2,fma"))) static void gram_avx2(const double *w,
@@ -262,7 +255,7 @@ static void gram_range(void *ctx, size_t begin, size_t end)
         double *part = g->parts + s * B * B;
         size_t r0 = s * GRAM_STRETCH;
         size_t r1 = r0 + GRAM_STRETCH < g->n ? r0 + GRAM_STRETCH : g->n;
-#if HAVE_AVX2_KERNEL
+#if PHKS_HAVE_AVX2
         if (g->avx2) {
             gram_avx2(g->w, r0, r1, part);
             continue;
@@ -301,7 +294,7 @@ static void times_generic(const gram_ctx *g, size_t r0, size_t r1)
     }
 }
 
-#if HAVE_AVX2_KERNEL
+#if PHKS_HAVE_AVX2
 __attribute__((target("avx2,fma"))) static void times_avx2(const gram_ctx *g,
                                                             size_t r0, size_t r1)
 {
@@ -332,7 +325,7 @@ __attribute__((target("avx2,fma"))) static void times_avx2(const gram_ctx *g,
 static void times_range(void *ctx, size_t begin, size_t end)
 {
     const gram_ctx *g = ctx;
-#if HAVE_AVX2_KERNEL
+#if PHKS_HAVE_AVX2
     if (g->avx2) {
         times_avx2(g, begin, end);
         return;

@@ -48,6 +48,7 @@
  * own), only in the convergence checks and the final Ritz vectors.
  */
 #include "internal.h"
+#include "simd.h"
 
 #include <cblas.h>
 #include <lapacke.h>
@@ -1075,7 +1076,7 @@ phks_status phks_eigen_lanczos(const phks_operator_matrix *op, size_t k,
     phks_status st = phks_operator_pairs_build(op, phks_thread_count(opt), &pm);
     if (st != PHKS_OK)
         return st;
-    engine eng = {&pm, phks_operator_pairs_avx2(), opt, 0};
+    engine eng = {&pm, phks_cpu_avx2(), opt, 0};
     st = solve_all(&eng, k, guard, cap, op->norm_bound, opt, values, vectors);
     if (st == PHKS_OK) {
         /* back to the operator's numbering */

@@ -31,15 +31,10 @@
  * one-vertex path (phks_extend_hks_at, for feature vectors) is double.
  */
 #include "simp.h"
+#include "simd.h"
 
 #include <stdatomic.h>
 
-#if defined(__GNUC__) && defined(__x86_64__)
-#include <immintrin.h>
-#define HAVE_AVX2_KERNEL 1
-#else
-#define HAVE_AVX2_KERNEL 0
-#endif
 
 /* Vertices of a block extended by one matrix product. */
 #define CHUNK 256
@@ -374,7 +369,7 @@ static void product_base(const float *w, const float *f, float *g, size_t nv,
     }
 }
 
-#if HAVE_AVX2_KERNEL
+#if PHKS_HAVE_AVX2
 /* Six rows by sixteen columns at a time: twelve accumulators, two loads
  * of f and six broadcasts of w per step. */
 __attribute__((target("avx2,fma"))) static void
@@ -420,8 +415,8 @@ product_avx2(const float *w, const float *f, float *g, size_t nv, size_t nc,
 static void product(const float *w, const float *f, float *g, size_t nv,
                     size_t nc, size_t stride)
 {
-#if HAVE_AVX2_KERNEL
-    if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) {
+#if PHKS_HAVE_AVX2
+    if (phks_cpu_avx2()) {
         product_avx2(w, f, g, nv, nc, stride);
         return;
     }

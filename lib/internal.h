@@ -235,11 +235,9 @@ typedef struct phks_operator_pairs {
 phks_status phks_operator_pairs_build(const phks_operator_matrix *op,
                                       unsigned threads, phks_operator_pairs *pm);
 void phks_operator_pairs_release(phks_operator_pairs *pm);
-/* True when this processor runs the AVX2 + FMA kernel. */
-bool phks_operator_pairs_avx2(void);
 /* out = alpha (P B P^T) x + gamma x + beta z on row-major n x
  * PHKS_PAIR_BLOCK blocks (z may be NULL; out distinct from x and z).
- * Bit-identical for any thread count; avx2 from phks_operator_pairs_avx2
+ * Bit-identical for any thread count; avx2 from phks_cpu_avx2 (simd.h)
  * (the portable kernel rounds differently). */
 void phks_operator_pairs_poly(const phks_operator_pairs *pm, bool avx2,
                               const double *x, const double *z, double *out,
@@ -249,7 +247,7 @@ void phks_operator_pairs_poly(const phks_operator_pairs *pm, bool avx2,
 /* C = V^T W, then W -= V C, where V is n x cnt column-major (leading
  * dimension n), W n x PHKS_PAIR_BLOCK row-major and C cnt x
  * PHKS_PAIR_BLOCK row-major. Bit-identical for any thread count; avx2 from
- * phks_operator_pairs_avx2. */
+ * phks_cpu_avx2 (simd.h). */
 void phks_block_project(const double *v, size_t n, size_t cnt, double *w,
                         double *c, unsigned threads, bool avx2);
 /* g = W^T W (PHKS_PAIR_BLOCK^2, full) for the row-major n x

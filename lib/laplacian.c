@@ -16,19 +16,12 @@
  * areas.
  */
 #include "internal.h"
+#include "simd.h"
 
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
-/* PHKS_NO_SIMD (a compiler flag) builds the portable kernels only, to
- * test them on machines that have AVX2. */
-#if defined(__GNUC__) && defined(__x86_64__) && !defined(PHKS_NO_SIMD)
-#include <immintrin.h>
-#define HAVE_AVX2 1
-#else
-#define HAVE_AVX2 0
-#endif
 
 /* Rows are built in batches so that the progress callback can cancel. */
 #define ROW_BATCHES 16
@@ -66,7 +59,7 @@ static void distances_generic(const build_ctx *b, const double p[3], size_t lo,
     }
 }
 
-#if HAVE_AVX2
+#if PHKS_HAVE_AVX2
 __attribute__((target("avx2"))) static void distances_avx2(const build_ctx *b,
                                                             const double p[3],
                                                             size_t lo, size_t hi,
@@ -94,7 +87,7 @@ static void kernel_generic(const double *x, double scale, double *y, size_t coun
         y[i] = exp(-x[i] * scale);
 }
 
-#if HAVE_AVX2
+#if PHKS_HAVE_AVX2
 /* exp(t) = 2^k exp(r), k = round(t / ln 2), r = t - k ln 2 in two parts
  * (Cody-Waite), |r| <= ln 2 / 2, exp(r) by its Taylor polynomial of degree
  * 13 (truncation below 1e-17 relative), Horner with fused multiply-adds:
@@ -135,7 +128,7 @@ __attribute__((target("avx2,fma"))) static void kernel_avx2(const double *x,
 
 static void kernel(const build_ctx *b, const double *x, double *y, size_t count)
 {
-#if HAVE_AVX2
+#if PHKS_HAVE_AVX2
     if (b->avx2) {
         kernel_avx2(x, b->inv4h, y, count);
         return;
@@ -147,7 +140,7 @@ static void kernel(const build_ctx *b, const double *x, double *y, size_t count)
 static void distances(const build_ctx *b, const double p[3], size_t lo,
                       size_t hi, double *d2)
 {
-#if HAVE_AVX2
+#if PHKS_HAVE_AVX2
     if (b->avx2) {
         distances_avx2(b, p, lo, hi, d2);
         return;
@@ -346,7 +339,7 @@ phks_status phks_point_operator_build(const double *xyz, size_t n,
     build_ctx b = {&grid, xyz, scale, radius * radius, 1 / (4 * h),
                    sorted, sorted + n, sorted + 2 * n, sorted + 3 * n,
                    op->row_start, NULL, NULL, density, false,
-                   phks_operator_pairs_avx2()};
+                   phks_cpu_avx2()};
     unsigned threads = phks_thread_count(opt);
     st = phks_run_batched(n, threads, scan_rows, &b, opt, PHKS_STAGE_OPERATOR,
                           done, 0.3 * span, ROW_BATCHES);

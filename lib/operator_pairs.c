@@ -22,17 +22,10 @@
  * not depend on the thread count.
  */
 #include "internal.h"
+#include "simd.h"
 
 #include <string.h>
 
-/* PHKS_NO_SIMD (a compiler flag) builds the portable kernels only, to
- * test them on machines that have AVX2. */
-#if defined(__GNUC__) && defined(__x86_64__) && !defined(PHKS_NO_SIMD)
-#include <immintrin.h>
-#define HAVE_AVX2_KERNEL 1
-#else
-#define HAVE_AVX2_KERNEL 0
-#endif
 
 #define B PHKS_PAIR_BLOCK
 
@@ -227,7 +220,7 @@ static void poly_generic(void *ctx, size_t begin, size_t end)
         }
 }
 
-#if HAVE_AVX2_KERNEL
+#if PHKS_HAVE_AVX2
 __attribute__((target("avx2,fma"))) static void poly_avx2(void *ctx, size_t begin,
                                                            size_t end)
 {
@@ -272,22 +265,12 @@ __attribute__((target("avx2,fma"))) static void poly_avx2(void *ctx, size_t begi
 }
 #endif
 
-bool phks_operator_pairs_avx2(void)
-{
-#if HAVE_AVX2_KERNEL
-    __builtin_cpu_init();
-    return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-#else
-    return false;
-#endif
-}
-
 void phks_operator_pairs_poly(const phks_operator_pairs *pm, bool avx2,
                               const double *x, const double *z, double *out,
                               double alpha, double gamma, double beta)
 {
     poly_ctx p = {pm, x, z, out, alpha, gamma, beta};
-#if HAVE_AVX2_KERNEL
+#if PHKS_HAVE_AVX2
     if (avx2) {
         phks_parallel_for(pm->threads, pm->threads, poly_avx2, &p);
         return;

@@ -60,6 +60,7 @@
  * result depends on the number of threads.
  */
 #include "simp.h"
+#include "simd.h"
 
 #include <stdlib.h>
 
@@ -145,7 +146,7 @@ static void kernel_row_base(const double *restrict x, const double *restrict y,
     KERNEL_ROW_BODY
 }
 
-#if defined(__GNUC__) && defined(__x86_64__)
+#if PHKS_HAVE_AVX2
 __attribute__((target("avx2,fma"))) static void
 kernel_row_avx2(const double *restrict x, const double *restrict y,
                 const double *restrict z, size_t count, double px, double py,
@@ -160,8 +161,8 @@ void phks_kernel_row(const double *x, const double *y, const double *z,
                      size_t count, const double p[3], double r2, double inv4h,
                      double *e, double *d2)
 {
-#if defined(__GNUC__) && defined(__x86_64__)
-    if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) {
+#if PHKS_HAVE_AVX2
+    if (phks_cpu_avx2()) {
         kernel_row_avx2(x, y, z, count, p[0], p[1], p[2], r2, inv4h, e, d2);
         return;
     }
