@@ -16,7 +16,6 @@
 
 #include <string.h>
 
-
 #define B PHKS_PAIR_BLOCK
 /* Rows of W per stretch: 128 rows of 16 doubles are 16 KB. */
 #define STRETCH 128

@@ -35,7 +35,6 @@
 
 #include <stdatomic.h>
 
-
 /* Vertices of a block extended by one matrix product. */
 #define CHUNK 256
 /* The product's columns (eigenvectors, then s'_w and s_w) are padded to a

@@ -22,7 +22,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-
 /* Rows are built in batches so that the progress callback can cancel. */
 #define ROW_BATCHES 16
 

@@ -26,7 +26,6 @@
 
 #include <string.h>
 
-
 #define B PHKS_PAIR_BLOCK
 
 void phks_operator_pairs_release(phks_operator_pairs *pm)

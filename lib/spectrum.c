@@ -154,45 +154,16 @@ static phks_status compute_simplified(const phks_mesh *mesh,
     return st;
 }
 
-/* phks_spectrum_compute on resolved options. */
-static phks_status compute(const phks_mesh *mesh, const phks_options *options,
-                           phks_spectrum **out)
+/* The whole mesh's operator and its eigenpairs, into spec (n set). */
+static phks_status compute_exact(const phks_mesh *mesh, const phks_options *opt,
+                                 phks_spectrum *spec)
 {
-    phks_options opt = *options;
-    phks_status st;
-    if (phks_simplify_applies(&opt, mesh->vertex_count)) {
-        phks_spectrum *spec = phks_calloc(1, sizeof *spec);
-        if (!spec)
-            return phks_fail_oom("spectrum");
-        spec->n = mesh->vertex_count;
-        spec->options = opt;
-        spec->options.progress = NULL;
-        spec->options.progress_user = NULL;
-        st = compute_simplified(mesh, &opt, spec);
-        if (st == PHKS_OK)
-            st = phks_progress(&opt, PHKS_STAGE_EIGEN, 1);
-        if (st != PHKS_OK) {
-            phks_spectrum_free(spec);
-            return st;
-        }
-        *out = spec;
-        return PHKS_OK;
-    }
-    phks_spectrum *spec = phks_calloc(1, sizeof *spec);
-    if (!spec)
-        return phks_fail_oom("spectrum");
     phks_operator_matrix op;
-    st = phks_operator_build(mesh, &opt, &op);
-    if (st != PHKS_OK) {
-        phks_free(spec);
+    phks_status st = phks_operator_build(mesh, opt, &op);
+    if (st != PHKS_OK)
         return st;
-    }
-    size_t n = mesh->vertex_count;
-    spec->n = n;
-    spec->count = opt.eigen_count < n ? opt.eigen_count : n;
-    spec->options = opt;
-    spec->options.progress = NULL;
-    spec->options.progress_user = NULL;
+    size_t n = spec->n;
+    spec->count = opt->eigen_count < n ? opt->eigen_count : n;
     spec->values = phks_malloc_array(spec->count, sizeof(double));
     spec->vectors = phks_malloc_array(n, spec->count * sizeof(double));
     spec->mass = phks_malloc_array(n, sizeof(double));
@@ -200,16 +171,30 @@ static phks_status compute(const phks_mesh *mesh, const phks_options *options,
         st = phks_fail_oom("spectrum");
     if (st == PHKS_OK) {
         memcpy(spec->mass, op.mass, n * sizeof(double));
-        st = solve(&op, spec->count, &opt, spec->values, spec->vectors);
+        st = solve(&op, spec->count, opt, spec->values, spec->vectors);
     }
     phks_operator_release(&op);
-    if (st != PHKS_OK) {
-        phks_spectrum_free(spec);
-        return st;
-    }
-    st = finish_vectors(spec, n, spec->mass, &opt);
     if (st == PHKS_OK)
-        st = phks_progress(&opt, PHKS_STAGE_EIGEN, 1);
+        st = finish_vectors(spec, n, spec->mass, opt);
+    return st;
+}
+
+/* phks_spectrum_compute on resolved options. */
+static phks_status compute(const phks_mesh *mesh, const phks_options *opt,
+                           phks_spectrum **out)
+{
+    phks_spectrum *spec = phks_calloc(1, sizeof *spec);
+    if (!spec)
+        return phks_fail_oom("spectrum");
+    spec->n = mesh->vertex_count;
+    spec->options = *opt;
+    spec->options.progress = NULL;
+    spec->options.progress_user = NULL;
+    phks_status st = phks_simplify_applies(opt, spec->n)
+                         ? compute_simplified(mesh, opt, spec)
+                         : compute_exact(mesh, opt, spec);
+    if (st == PHKS_OK)
+        st = phks_progress(opt, PHKS_STAGE_EIGEN, 1);
     if (st != PHKS_OK) {
         phks_spectrum_free(spec);
         return st;

@@ -441,11 +441,11 @@ static phks_status step_hks(void *ctx, bytes *out)
     return st;
 }
 
-static phks_status step_signature(void *ctx, bytes *out)
+/* What a call that made sig returned: on failure sig must be NULL; on
+ * success its encoding goes to out and it is freed. */
+static phks_status take_signature(phks_status st, phks_signature *sig,
+                                  bytes *out)
 {
-    const compute_ctx *c = ctx;
-    phks_signature *sig = (phks_signature *)out;
-    phks_status st = phks_signature_compute(c->mesh, &c->options, &sig);
     if (st != PHKS_OK) {
         REQUIRE(sig == NULL);
         return st;
@@ -455,19 +455,21 @@ static phks_status step_signature(void *ctx, bytes *out)
     return PHKS_OK;
 }
 
+static phks_status step_signature(void *ctx, bytes *out)
+{
+    const compute_ctx *c = ctx;
+    phks_signature *sig = (phks_signature *)out;
+    phks_status st = phks_signature_compute(c->mesh, &c->options, &sig);
+    return take_signature(st, sig, out);
+}
+
 static phks_status step_from_spectrum(void *ctx, bytes *out)
 {
     const compute_ctx *c = ctx;
     phks_signature *sig = (phks_signature *)out;
     phks_status st =
         phks_signature_from_spectrum(c->mesh, c->spectrum, &c->options, &sig);
-    if (st != PHKS_OK) {
-        REQUIRE(sig == NULL);
-        return st;
-    }
-    put_signature(out, sig);
-    phks_signature_free(sig);
-    return PHKS_OK;
+    return take_signature(st, sig, out);
 }
 
 /* decode, then encode again (encode itself writes into the caller's
