@@ -234,6 +234,8 @@ void cli_print_options(FILE *out, const char *prefix, const phks_options *o)
             o->feature_scale, o->scale_count, o->scales[0],
             o->scales[o->scale_count ? o->scale_count - 1 : 0],
             o->boundary_margin,
-            o->hks_scaling == PHKS_HKS_SCALING_MEAN ? "mean" : "none",
+            o->hks_scaling == PHKS_HKS_SCALING_MEAN         ? "mean"
+            : o->hks_scaling == PHKS_HKS_SCALING_LOCAL_AREA ? "local-area"
+                                                            : "none",
             o->simplify_above, o->simplify_target);
 }

@@ -12,7 +12,7 @@
 
 static const char usage_text[] =
     "usage: phks [--operator literal|random-walk] [--threads N]\n"
-    "            [--boundary-margin X] [--hks-scaling none|mean] COMMAND ...\n"
+    "            [--boundary-margin X] [--hks-scaling none|mean|local-area] COMMAND ...\n"
     "  phks signature MESH [-o SIG]\n"
     "  phks match A B                  (meshes or .sig files)\n"
     "  phks segment MESH -o OUT.ply\n"
@@ -54,10 +54,14 @@ static int set_global(const char *name, const char *v, phks_options *o)
             return -1;
         o->threads = (uint32_t)count;
     } else if (strcmp(name, "--hks-scaling") == 0) {
-        if (strcmp(v, "none") != 0 && strcmp(v, "mean") != 0)
+        if (strcmp(v, "none") == 0)
+            o->hks_scaling = PHKS_HKS_SCALING_NONE;
+        else if (strcmp(v, "mean") == 0)
+            o->hks_scaling = PHKS_HKS_SCALING_MEAN;
+        else if (strcmp(v, "local-area") == 0)
+            o->hks_scaling = PHKS_HKS_SCALING_LOCAL_AREA;
+        else
             return -1;
-        o->hks_scaling = strcmp(v, "none") == 0 ? PHKS_HKS_SCALING_NONE
-                                                : PHKS_HKS_SCALING_MEAN;
     } else {
         double margin = strtod(v, &end);
         if (end == v || *end || !(margin >= 0 && margin <= 100))

@@ -175,7 +175,16 @@ typedef enum phks_hks_scaling {
      * the heat trace sum_i exp(-t lambda_i) over the total mass. Removes
      * the 1/area level that large t approaches, which a partial scan or a
      * cut model shares with nothing: only the shape of the heat remains. */
-    PHKS_HKS_SCALING_MEAN = 1
+    PHKS_HKS_SCALING_MEAN = 1,
+    /* log(HKS_t(x) A_t(x) / (4 pi t)), A_t(x) the area of the mesh within
+     * straight-line distance sqrt(4 t) of x (the heat kernel's width), all
+     * in the unit box; 0 on a plane. A partial scan keeps one side of a
+     * thin part, where the heat that spread over both sides now stays on
+     * one: HKS_t doubles and A_t halves, so the product is what the scan
+     * shares with its whole. The logarithm makes the L1 distance weigh
+     * every time scale alike. Feature vectors only: feature points are
+     * chosen as with NONE. The default since 0.2.0 (docs/retrieval.md). */
+    PHKS_HKS_SCALING_LOCAL_AREA = 2
 } phks_hks_scaling;
 
 typedef enum phks_solver {
@@ -255,7 +264,8 @@ typedef struct phks_options {
                                 tau), the width of the heat kernel the
                                 points come from. Feature vectors are not
                                 tapered. 2; 0 = none, as in the paper     */
-    int32_t hks_scaling;     /* phks_hks_scaling: NONE                   */
+    int32_t hks_scaling;     /* phks_hks_scaling: LOCAL_AREA (the paper's
+                                is NONE)                                 */
     uint32_t simplify_above; /* meshes with more vertices (and more than
                                 simplify_target) go through HKS-simp
                                 (see Spectrum): 25000; 0 = never. Not
@@ -508,7 +518,8 @@ PHKS_API size_t phks_signature_feature_count(const phks_signature *signature);
 PHKS_API size_t phks_signature_vector_length(const phks_signature *signature);
 /* Feature i: mesh vertex, position in input coordinates (3 doubles into
  * xyz), persistence, and the HKS vector (vector_length values, owned by the
- * signature). Out-of-range i gives UINT32_MAX, PHKS_ERROR_INVALID_ARGUMENT,
+ * signature; HKS at each of options.scales, scaled by options.hks_scaling:
+ * logarithms, which may be negative, with the default LOCAL_AREA). Out-of-range i gives UINT32_MAX, PHKS_ERROR_INVALID_ARGUMENT,
  * NaN and NULL respectively. Features come most persistent first. */
 PHKS_API uint32_t phks_signature_feature_vertex(const phks_signature *signature,
                                                 size_t i);

@@ -107,6 +107,13 @@ phks_status phks_unit_box_scale(const phks_mesh *mesh, phks_box box,
 /* Per-vertex area: a third of the area of the incident triangles, for
  * positions scaled by `scale`. mass has vertex_count entries. */
 void phks_vertex_areas(const phks_mesh *mesh, double scale, double *mass);
+/* area[s] = the area (vertex_area summed) of the vertices within
+ * straight-line distance sqrt(radius2[s]) of `vertex`, positions scaled by
+ * `scale`: what PHKS_HKS_SCALING_LOCAL_AREA multiplies HKS by
+ * (local_area.c). The radii in any order. */
+void phks_local_areas(const phks_mesh *mesh, double scale,
+                      const double *vertex_area, uint32_t vertex,
+                      const double *radius2, size_t count, double *area);
 /* Eigen-decomposition of the symmetric 3 x 3 matrix (row-major; its upper
  * triangle is read) by cyclic Jacobi, in the layout of LAPACK's row-major
  * dsyev: values ascending, vectors[3 * i + j] component i of the unit

@@ -26,10 +26,12 @@ phks_status phks_options_init(phks_options *options)
     options->feature_scale = 5;
     /* Departures from the paper, measured in docs/retrieval.md: the
      * random-walk operator evens out the jump rate that halves at a
-     * boundary, and feature points two kernel widths from a boundary are
-     * not the cut's artefacts. */
+     * boundary, feature points two kernel widths from a boundary are not
+     * the cut's artefacts, and HKS times the area within the kernel's
+     * width does not double where a scan lost the back of a thin part. */
     options->operator_kind = PHKS_OPERATOR_RANDOM_WALK;
     options->boundary_margin = 2;
+    options->hks_scaling = PHKS_HKS_SCALING_LOCAL_AREA;
     options->box = PHKS_BOX_PRINCIPAL;
     options->solver = PHKS_SOLVER_AUTO;
     options->threads = 0;
@@ -103,7 +105,8 @@ phks_status phks_options_resolve(const phks_options *user, phks_options *out)
                          "options: boundary_margin %g outside [0, 100]",
                          out->boundary_margin);
     if (out->hks_scaling != PHKS_HKS_SCALING_NONE &&
-        out->hks_scaling != PHKS_HKS_SCALING_MEAN)
+        out->hks_scaling != PHKS_HKS_SCALING_MEAN &&
+        out->hks_scaling != PHKS_HKS_SCALING_LOCAL_AREA)
         return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "options: unknown hks_scaling %d",
                          (int)out->hks_scaling);

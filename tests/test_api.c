@@ -74,7 +74,7 @@ START_TEST(options_defaults_are_the_papers)
     /* The documented departures for partial shapes (docs/retrieval.md). */
     ck_assert_int_eq(o.operator_kind, PHKS_OPERATOR_RANDOM_WALK);
     ck_assert_double_eq(o.boundary_margin, 2);
-    ck_assert_int_eq(o.hks_scaling, PHKS_HKS_SCALING_NONE);
+    ck_assert_int_eq(o.hks_scaling, PHKS_HKS_SCALING_LOCAL_AREA);
     ck_assert_int_eq(phks_options_init(NULL), PHKS_ERROR_INVALID_ARGUMENT);
 }
 END_TEST
@@ -111,6 +111,8 @@ START_TEST(bad_options_are_refused)
     REFUSED(o.box = -1, "box");
     REFUSED(o.solver = 9, "solver");
     REFUSED(o.tolerance = 0, "tolerance");
+    REFUSED(o.hks_scaling = 3, "hks_scaling");
+    REFUSED(o.boundary_margin = -1, "boundary_margin");
 #undef REFUSED
     phks_mesh_free(m);
 }

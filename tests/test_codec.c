@@ -16,8 +16,9 @@ static phks_signature *make(size_t count, uint64_t seed)
         for (int d = 0; d < 3; d++)
             sig->position[3 * i + d] = test_random(&seed) - 0.5;
         sig->persistence[i] = i == 0 ? INFINITY : test_random(&seed);
+        /* signed, as the default logarithms are */
         for (size_t s = 0; s < 15; s++)
-            sig->vectors[i * 15 + s] = 100 * test_random(&seed);
+            sig->vectors[i * 15 + s] = 100 * test_random(&seed) - 50;
     }
     return sig;
 }

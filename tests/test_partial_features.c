@@ -1,9 +1,9 @@
 /* test_partial_features.c - what makes partial and incomplete shapes
  * retrievable: with the default boundary margin no feature point sits on
  * the cut of a generated incomplete model or partial scan (the paper's
- * literal method puts them there), and a cut piece of a creature still
- * finds its own kind among complete creatures. Also the boundary
- * distances behind the margin, against brute force. */
+ * literal method puts them there), and a cut piece or a partial scan of
+ * a creature still finds its own kind among complete creatures. Also the
+ * boundary distances behind the margin, against brute force. */
 #include "partial.h"
 #include "shapes.h"
 #include "soup.h"
@@ -118,33 +118,36 @@ static phks_signature *complete(unsigned kind, unsigned pose,
     return sig;
 }
 
-/* For each kind, the rank of its own complete creature (pose 1) among all
- * five for an incomplete model of it in pose 3; returns how many rank
- * first, and the worst rank in *worst. */
-static int own_kind_first(const phks_options *o, int *worst)
+/* For each kind and each of `seeds` pieces of it (`how`: an incomplete
+ * model or a partial scan) in pose 3, the rank of its own complete
+ * creature (pose 1) among all five; returns how many rank first, and the
+ * worst rank in *worst. */
+static int own_kind_first(const phks_options *o, int how, unsigned seeds,
+                          int *worst)
 {
     phks_signature *catalogue[SHAPE_KIND_COUNT];
     for (unsigned k = 0; k < SHAPE_KIND_COUNT; k++)
         catalogue[k] = complete(k, 1, o);
     int first = 0;
     *worst = 1;
-    for (unsigned kind = 0; kind < SHAPE_KIND_COUNT; kind++) {
-        phks_mesh *m = piece_of(kind, 3, INCOMPLETE, 20 + kind);
-        phks_signature *q;
-        ck_assert_int_eq(phks_signature_compute(m, o, &q), PHKS_OK);
-        double own, s;
-        ck_assert_int_eq(phks_score(q, catalogue[kind], &own), PHKS_OK);
-        int rank = 1;
-        for (unsigned k = 0; k < SHAPE_KIND_COUNT; k++) {
-            ck_assert_int_eq(phks_score(q, catalogue[k], &s), PHKS_OK);
-            rank += s < own;
+    for (unsigned kind = 0; kind < SHAPE_KIND_COUNT; kind++)
+        for (unsigned seed = 0; seed < seeds; seed++) {
+            phks_mesh *m = piece_of(kind, 3, how, 20 + kind + 10 * seed);
+            phks_signature *q;
+            ck_assert_int_eq(phks_signature_compute(m, o, &q), PHKS_OK);
+            double own, s;
+            ck_assert_int_eq(phks_score(q, catalogue[kind], &own), PHKS_OK);
+            int rank = 1;
+            for (unsigned k = 0; k < SHAPE_KIND_COUNT; k++) {
+                ck_assert_int_eq(phks_score(q, catalogue[k], &s), PHKS_OK);
+                rank += s < own;
+            }
+            first += rank == 1;
+            if (rank > *worst)
+                *worst = rank;
+            phks_signature_free(q);
+            phks_mesh_free(m);
         }
-        first += rank == 1;
-        if (rank > *worst)
-            *worst = rank;
-        phks_signature_free(q);
-        phks_mesh_free(m);
-    }
     for (unsigned k = 0; k < SHAPE_KIND_COUNT; k++)
         phks_signature_free(catalogue[k]);
     return first;
@@ -162,13 +165,35 @@ START_TEST(cut_piece_finds_its_kind)
     phks_options_init(&literal);
     literal.operator_kind = PHKS_OPERATOR_LITERAL;
     literal.boundary_margin = 0;
+    literal.hks_scaling = PHKS_HKS_SCALING_NONE;
     int worst, worst_literal;
-    int first = own_kind_first(&def, &worst);
-    int first_literal = own_kind_first(&literal, &worst_literal);
+    int first = own_kind_first(&def, INCOMPLETE, 1, &worst);
+    int first_literal = own_kind_first(&literal, INCOMPLETE, 1, &worst_literal);
     ck_assert_msg(first >= 4 && worst <= 2, "defaults: %d first, worst rank %d",
                   first, worst);
     ck_assert_msg(first > first_literal, "defaults %d first, literal %d",
                   first, first_literal);
+}
+END_TEST
+
+/* Partial scans of a creature from four view directions, in another
+ * pose, find their own kind among the five complete creatures: first for
+ * at least 8 of the 20 with the defaults (measured: 10; chance is 4),
+ * and for at least 3 more than with the paper's literal method (measured:
+ * 6). */
+START_TEST(scan_finds_its_kind)
+{
+    phks_options def, literal;
+    phks_options_init(&def);
+    phks_options_init(&literal);
+    literal.operator_kind = PHKS_OPERATOR_LITERAL;
+    literal.boundary_margin = 0;
+    literal.hks_scaling = PHKS_HKS_SCALING_NONE;
+    int worst, worst_literal;
+    int first = own_kind_first(&def, PARTIAL, 4, &worst);
+    int first_literal = own_kind_first(&literal, PARTIAL, 4, &worst_literal);
+    ck_assert_msg(first >= 8 && first >= first_literal + 3,
+                  "defaults %d first, literal %d", first, first_literal);
 }
 END_TEST
 
@@ -267,6 +292,7 @@ int main(void)
     tcase_set_timeout(c, 600);
     tcase_add_loop_test(c, no_feature_on_the_cut, 0, SHAPE_KIND_COUNT);
     tcase_add_test(c, cut_piece_finds_its_kind);
+    tcase_add_test(c, scan_finds_its_kind);
     tcase_add_test(c, boundary_distances_are_exact_and_cancellable);
     suite_add_tcase(s, c);
     return run_suite(s);

@@ -1,9 +1,11 @@
 /* test_signature.c - the whole pipeline on generated creatures: invariance
- * to rigid motion and scale, poses against kinds, repeatability, the
- * spectrum path, BLAS threads, progress and cancellation. Small meshes
+ * to rigid motion and scale, poses against kinds, the local-area scaling
+ * on a sphere and its scan, repeatability, the spectrum path, BLAS
+ * threads, progress and cancellation. Small meshes
  * (resolution 1, 500-1300 vertices) keep it fast. */
 #include "testutil.h"
 #include "shapes.h"
+#include "partial.h"
 
 #include <cblas.h>
 #include <math.h>
@@ -36,6 +38,69 @@ static phks_signature *signature(const phks_mesh *m, const phks_options *o)
     ck_assert_msg(st == PHKS_OK, "%s", phks_last_error_message());
     return sig;
 }
+
+
+/* The local-area scaling on a sphere (radius 1/2 in the unit box) and on
+ * its partial scan, the half facing the viewer. On a sphere the area
+ * within straight-line distance r of any point is pi r^2 (Archimedes), so
+ * the scaled value is log(HKS) exactly in the continuum: within 0.05 from
+ * 20 tau up (at 5 tau the ball holds a dozen vertices; measured 0.004-0.03
+ * beyond it). The scan keeps half the sphere, and its plain HKS at the
+ * feature points grows towards twice the sphere's as heat fills the half
+ * (log ratio measured 0.52 at 1000 tau; above 0.4 required), while the
+ * scaled values stay within 0.1 of the sphere's from 20 tau up
+ * (measured: 0.065 at most). */
+START_TEST(local_area_keeps_what_a_scan_shares)
+{
+    shape_mesh s;
+    ck_assert_int_eq(shape_sphere(4, 1, &s), 0);
+    piece p;
+    const double view[3] = {0, 0, 1};
+    ck_assert_int_eq(piece_partial_scan_dir(s.xyz, s.vertex_count, s.triangles,
+                                            s.triangle_count, view, &p),
+                     0);
+    phks_mesh *whole, *half;
+    ck_assert_int_eq(phks_mesh_create(s.xyz, s.vertex_count, s.triangles,
+                                      s.triangle_count, &whole),
+                     PHKS_OK);
+    ck_assert_int_eq(phks_mesh_create(p.xyz, p.vertex_count, p.triangles,
+                                      p.triangle_count, &half),
+                     PHKS_OK);
+    phks_options plain;
+    phks_options_init(&plain);
+    plain.hks_scaling = PHKS_HKS_SCALING_NONE;
+    phks_signature *sig[2][2] = {
+        {signature(whole, NULL), signature(whole, &plain)},
+        {signature(half, NULL), signature(half, &plain)}};
+    /* mean[cut][scaling][scale]: the mean over the feature points, the
+     * plain values as logarithms */
+    double mean[2][2][PHKS_MAX_SCALES] = {{{0}}};
+    size_t length = phks_signature_vector_length(sig[0][0]);
+    for (int cut = 0; cut < 2; cut++)
+        for (int plain_hks = 0; plain_hks < 2; plain_hks++) {
+            const phks_signature *g = sig[cut][plain_hks];
+            size_t n = phks_signature_feature_count(g);
+            ck_assert_uint_gt(n, 0);
+            for (size_t i = 0; i < n; i++)
+                for (size_t t = 0; t < length; t++) {
+                    double v = phks_signature_feature_vector(g, i)[t];
+                    mean[cut][plain_hks][t] += (plain_hks ? log(v) : v) / n;
+                }
+        }
+    for (size_t t = 1; t < length; t++) {
+        ck_assert_double_eq_tol(mean[0][0][t], mean[0][1][t], 0.05);
+        ck_assert_double_eq_tol(mean[1][0][t], mean[0][0][t], 0.1);
+    }
+    ck_assert_double_gt(mean[1][1][length - 1] - mean[0][1][length - 1], 0.4);
+    for (int cut = 0; cut < 2; cut++)
+        for (int plain_hks = 0; plain_hks < 2; plain_hks++)
+            phks_signature_free(sig[cut][plain_hks]);
+    phks_mesh_free(whole);
+    phks_mesh_free(half);
+    piece_free(&p);
+    shape_mesh_free(&s);
+}
+END_TEST
 
 /* After any rotation, translation and uniform scale of the input, every
  * feature vector has a twin in the other signature equal to 1e-4
@@ -86,19 +151,20 @@ START_TEST(invariant_to_rigid_motion_and_scale)
 }
 END_TEST
 
-/* The method's promise on generated shapes: another pose of the same kind
- * scores at least four times closer than any other kind. */
-START_TEST(poses_score_far_closer_than_kinds)
+/* The smallest ratio, over the kinds, of the score to the nearest other
+ * kind (either pose) over the score to another pose of the same kind. */
+static double kind_separation(const phks_options *o)
 {
     enum { K = SHAPE_KIND_COUNT };
     phks_signature *p1[K], *p2[K];
     for (unsigned k = 0; k < K; k++) {
         phks_mesh *a = creature(k, 1, NULL, 1), *b = creature(k, 2, NULL, 1);
-        p1[k] = signature(a, NULL);
-        p2[k] = signature(b, NULL);
+        p1[k] = signature(a, o);
+        p2[k] = signature(b, o);
         phks_mesh_free(a);
         phks_mesh_free(b);
     }
+    double worst = INFINITY;
     for (unsigned k = 0; k < K; k++) {
         double same, other = INFINITY, s;
         ck_assert_int_eq(phks_score(p1[k], p2[k], &same), PHKS_OK);
@@ -109,13 +175,30 @@ START_TEST(poses_score_far_closer_than_kinds)
                 ck_assert_int_eq(phks_score(p1[k], p1[j], &s), PHKS_OK);
                 other = fmin(other, s);
             }
-        ck_assert_msg(same * 4 < other, "%s: same kind %g, nearest other %g",
-                      shape_creature_name(k), same, other);
+        worst = fmin(worst, other / same);
     }
     for (unsigned k = 0; k < K; k++) {
         phks_signature_free(p1[k]);
         phks_signature_free(p2[k]);
     }
+    return worst;
+}
+
+/* The method's promise on generated shapes: another pose of the same kind
+ * scores closer than any other kind. With the paper's plain HKS values at
+ * least four times closer (measured: 4.2 for the plier, whose hinge moves
+ * its jaws, 16-47 for the others); with the default logarithms, whose
+ * distances weigh the large scales as much as the small ones, at least 1.5
+ * times (measured: 2.0 for the plier, 4.7-35). */
+START_TEST(poses_score_far_closer_than_kinds)
+{
+    phks_options plain;
+    phks_options_init(&plain);
+    plain.hks_scaling = PHKS_HKS_SCALING_NONE;
+    double with_defaults = kind_separation(NULL);
+    double with_plain = kind_separation(&plain);
+    ck_assert_msg(with_defaults > 1.5, "defaults: separation %g", with_defaults);
+    ck_assert_msg(with_plain > 4, "plain HKS: separation %g", with_plain);
 }
 END_TEST
 
@@ -160,7 +243,7 @@ START_TEST(repeatable_and_equal_through_the_spectrum)
 END_TEST
 
 /* Features: persistent maxima of HKS at the feature scale, most persistent
- * first, each vector's first entry (t = 5 tau) equal to that HKS. */
+ * first, each plain vector's first entry (t = 5 tau) equal to that HKS. */
 START_TEST(features_are_the_persistent_maxima)
 {
     phks_mesh *m = creature(SHAPE_OCTOPUS, 1, NULL, 1);
@@ -175,7 +258,8 @@ START_TEST(features_are_the_persistent_maxima)
     size_t count;
     ck_assert_int_eq(phks_persistent_maxima(m, h, 15, 0, max, &count, NULL), PHKS_OK);
     phks_signature *sig;
-    ck_assert_int_eq(phks_signature_from_spectrum(m, spec, NULL, &sig), PHKS_OK);
+    o.hks_scaling = PHKS_HKS_SCALING_NONE;
+    ck_assert_int_eq(phks_signature_from_spectrum(m, spec, &o, &sig), PHKS_OK);
     ck_assert_uint_eq(phks_signature_feature_count(sig), count);
     ck_assert_uint_eq(count, 15);
     for (size_t i = 0; i < count; i++) {
@@ -299,6 +383,7 @@ int main(void)
     Suite *s = suite_create("signature");
     TCase *c = tcase_create("signature");
     tcase_set_timeout(c, 600);
+    tcase_add_test(c, local_area_keeps_what_a_scan_shares);
     tcase_add_loop_test(c, invariant_to_rigid_motion_and_scale, 0, SHAPE_KIND_COUNT);
     tcase_add_test(c, poses_score_far_closer_than_kinds);
     tcase_add_test(c, repeatable_and_equal_through_the_spectrum);
