@@ -73,6 +73,13 @@ const char *cli_operator_name(int32_t operator_kind);
 /* Prints the options that shape the numbers, one line, with a prefix. */
 void cli_print_options(FILE *out, const char *prefix, const phks_options *o);
 
+/* ---- databases (cli_db.c) ----------------------------------------------- */
+/* The options the signatures of a non-empty database were made with, into
+ * *options (its threads kept): the only ones a new signature can be added
+ * or queried with. An empty database leaves *options alone. 0, or 1 after
+ * "phks: path: reason". */
+int cli_db_options(phks_db *db, const char *path, phks_options *options);
+
 /* ---- manifests (cli_manifest.c) ----------------------------------------- */
 typedef struct cli_row {
     char *name;  /* the file column as written              */

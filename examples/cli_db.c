@@ -58,7 +58,26 @@ static void print_hits(const phks_hit *hits, size_t count, int json)
     printf("%s]\n", count ? "\n" : "");
 }
 
-static int db_query(int argc, char **argv, const phks_options *options)
+int cli_db_options(phks_db *db, const char *path, phks_options *options)
+{
+    int64_t first;
+    size_t listed = 0;
+    phks_signature *sig = NULL;
+    phks_status st = phks_db_list(db, 0, &first, 1, &listed);
+    if (st == PHKS_OK && listed == 1)
+        st = phks_db_get(db, first, &sig, NULL, 0, NULL, 0);
+    if (st != PHKS_OK)
+        return cli_fail(path, st);
+    if (sig) {
+        uint32_t threads = options->threads;
+        phks_signature_options(sig, options);
+        options->threads = threads;
+        phks_signature_free(sig);
+    }
+    return 0;
+}
+
+static int db_query(int argc, char **argv, const phks_options *defaults)
 {
     const char *k_text = "10";
     int json = 0, n;
@@ -77,7 +96,12 @@ static int db_query(int argc, char **argv, const phks_options *options)
         return cli_fail(argv[1], st);
     }
     k = k < entries ? k : entries ? entries : 1;  /* room for what exists */
-    phks_signature *query = cli_signature_of(argv[2], options);
+    phks_options options = *defaults;
+    if (cli_db_options(db, argv[1], &options) != 0) {
+        phks_db_close(db);
+        return 1;
+    }
+    phks_signature *query = cli_signature_of(argv[2], &options);
     phks_hit *hits = query ? malloc(k * sizeof *hits) : NULL;
     size_t count = 0;
     int rc = 1;

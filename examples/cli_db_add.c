@@ -83,6 +83,10 @@ static int run(add_job *job, const char *db_path, unsigned workers)
     phks_status st = phks_db_open(db_path, PHKS_DB_CREATE, &job->db);
     if (st != PHKS_OK)
         return cli_fail(db_path, st);
+    if (cli_db_options(job->db, db_path, &job->options) != 0) {
+        phks_db_close(job->db);
+        return 1;
+    }
     cli_blas_one_thread();
     cli_progress_start(job->count, "files");
     cli_pool_run(job->count, workers, add_one, job);

@@ -529,6 +529,13 @@ PHKS_API double phks_signature_feature_persistence(
     const phks_signature *signature, size_t i);
 PHKS_API const double *phks_signature_feature_vector(
     const phks_signature *signature, size_t i);
+/* Copies into *options the options the signature was made with, as
+ * resolved (progress and progress_user NULL), so that a new signature can
+ * be made comparable with it, or with a database that holds it: a blob
+ * decoded from an older version gives the options that version used.
+ * Errors: PHKS_ERROR_INVALID_ARGUMENT (NULL). Thread-safe. */
+PHKS_API phks_status phks_signature_options(const phks_signature *signature,
+                                            phks_options *options);
 
 /* Serialisation: a versioned, little-endian, CRC-32-checked byte blob that
  * every later version of the library decodes (docs/formats.md).

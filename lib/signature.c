@@ -296,3 +296,12 @@ const double *phks_signature_feature_vector(const phks_signature *s, size_t i)
 {
     return s && i < s->count ? s->vectors + i * s->length : NULL;
 }
+
+phks_status phks_signature_options(const phks_signature *s, phks_options *options)
+{
+    if (!s || !options)
+        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+                         "phks_signature_options: NULL argument");
+    *options = s->options;
+    return PHKS_OK;
+}

@@ -159,6 +159,14 @@ if command -v python3 >/dev/null; then
         < out || fail "db query --json: not JSON"
 fi
 run "$phks" db query t.db a.off -k 0; expect_rc 2 "db query -k 0"
+# A database made with other options: add and query use the database's.
+run "$phks" --hks-scaling none db add plain.db a.off -j 1; expect_rc 0 \
+    "db add with --hks-scaling none"
+run "$phks" db add plain.db b.off -j 1; expect_rc 0 \
+    "db add with the defaults to a database made with none"
+run "$phks" db query plain.db b.off -k 1; expect_rc 0 \
+    "db query with the defaults of a database made with none"
+expect_out "^ *1 *2 *0 .* b.off$"
 run "$phks" db query missing.db a.off; expect_rc 1 "db query of no db"
 expect_err "^phks: missing.db: "
 run "$phks" db query bad.off a.off; expect_rc 1 "db query of a non-db"

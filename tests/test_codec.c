@@ -100,8 +100,14 @@ START_TEST(format_1_still_reads)
         old[old_size - 4 + i] = (unsigned char)(crc >> (8 * i));
     phks_signature *back;
     ck_assert_int_eq(phks_signature_decode(old, old_size, &back), PHKS_OK);
-    ck_assert_double_eq(back->options.boundary_margin, 0);
-    ck_assert_int_eq(back->options.hks_scaling, PHKS_HKS_SCALING_NONE);
+    phks_options made;
+    ck_assert_int_eq(phks_signature_options(back, &made), PHKS_OK);
+    ck_assert_double_eq(made.boundary_margin, 0);
+    ck_assert_int_eq(made.hks_scaling, PHKS_HKS_SCALING_NONE);
+    ck_assert_int_eq(phks_signature_options(NULL, &made),
+                     PHKS_ERROR_INVALID_ARGUMENT);
+    ck_assert_int_eq(phks_signature_options(back, NULL),
+                     PHKS_ERROR_INVALID_ARGUMENT);
     ck_assert(phks_options_comparable(&back->options, &sig->options));
     ck_assert_mem_eq(back->vectors, sig->vectors, 30 * sizeof(double));
     phks_signature_free(back);
