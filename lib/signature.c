@@ -92,6 +92,47 @@ static double hks_factor(const phks_spectrum *spec, const phks_options *opt,
     return mass / trace;
 }
 
+/* The local areas of features [begin, end), for phks_run_batched. */
+typedef struct {
+    const phks_mesh *mesh;
+    const phks_signature *sig;
+    const double *vertex_area, *radius2;
+    double scale;
+    double *area; /* sig->count x sig->length */
+} areas_ctx;
+
+static void areas_range(void *ctx, size_t begin, size_t end)
+{
+    const areas_ctx *c = ctx;
+    for (size_t i = begin; i < end; i++)
+        phks_local_areas(c->mesh, c->scale, c->vertex_area, c->sig->vertex[i],
+                         c->radius2, c->sig->length, c->area + i * c->sig->length);
+}
+
+/* A_t of every feature point for PHKS_HKS_SCALING_LOCAL_AREA into area
+ * (sig->count x scale_count), the features spread over opt->threads and
+ * progress reported (PHKS_STAGE_PERSISTENCE, 0.95 to 1) between batches:
+ * on the 1.6M-vertex armadillo this takes about half a second. */
+static phks_status local_areas(const phks_mesh *mesh, const phks_options *opt,
+                               const phks_signature *sig,
+                               const double *radius2, double *area)
+{
+    double *vertex_area = phks_malloc_array(mesh->vertex_count, sizeof *vertex_area);
+    if (!vertex_area)
+        return phks_fail_oom("feature vectors");
+    areas_ctx c = {mesh, sig, vertex_area, radius2, 1, area};
+    phks_status st = phks_unit_box_scale(mesh, (phks_box)opt->box, &c.scale);
+    if (st == PHKS_OK) {
+        phks_vertex_areas(mesh, c.scale, vertex_area);
+        unsigned threads = phks_thread_count(opt);
+        st = phks_run_batched(sig->count, threads, areas_range, &c, opt,
+                              PHKS_STAGE_PERSISTENCE, 0.95, 0.05,
+                              (sig->count + threads - 1) / threads);
+    }
+    phks_free(vertex_area);
+    return st;
+}
+
 /* The feature vectors of sig's points: HKS at each time scale, scaled as
  * opt->hks_scaling says. With LOCAL_AREA each value becomes
  * log(HKS_t A_t / (4 pi t)), A_t the area within sqrt(4 t) of the point
@@ -106,38 +147,35 @@ static phks_status feature_vectors(const phks_mesh *mesh,
 {
     size_t S = opt->scale_count;
     double factors[PHKS_MAX_SCALES], radius2[PHKS_MAX_SCALES];
-    double area[PHKS_MAX_SCALES];
     for (size_t s = 0; s < S; s++) {
         factors[s] = hks_factor(spec, opt, opt->scales[s] * opt->tau);
         radius2[s] = 4 * opt->scales[s] * opt->tau;
     }
     bool local = opt->hks_scaling == PHKS_HKS_SCALING_LOCAL_AREA;
-    double scale = 1, *vertex_area = NULL;
-    if (local) {
-        vertex_area = phks_malloc_array(mesh->vertex_count, sizeof *vertex_area);
-        if (!vertex_area)
+    double *area = NULL;
+    if (local && sig->count) {
+        area = phks_malloc_array(sig->count, S * sizeof *area);
+        if (!area)
             return phks_fail_oom("feature vectors");
-        phks_status st = phks_unit_box_scale(mesh, (phks_box)opt->box, &scale);
+        phks_status st = local_areas(mesh, opt, sig, radius2, area);
         if (st != PHKS_OK) {
-            phks_free(vertex_area);
+            phks_free(area);
             return st;
         }
-        phks_vertex_areas(mesh, scale, vertex_area);
     }
     for (size_t i = 0; i < sig->count; i++) {
         uint32_t v = sig->vertex[i];
         double *out = sig->vectors + i * S;
-        if (local)
-            phks_local_areas(mesh, scale, vertex_area, v, radius2, S, area);
         for (size_t s = 0; s < S; s++) {
             double h = phks_hks_at(spec, opt->scales[s] * opt->tau, v) * factors[s];
             /* HKS is positive and the point's own area is in A_t; the
              * floor only keeps a rounding-level zero finite. */
-            out[s] = local ? log(fmax(h * area[s] / (PHKS_PI * radius2[s]), DBL_MIN))
+            out[s] = local ? log(fmax(h * area[i * S + s] / (PHKS_PI * radius2[s]),
+                                      DBL_MIN))
                            : h;
         }
     }
-    phks_free(vertex_area);
+    phks_free(area);
     return PHKS_OK;
 }
 
