@@ -174,7 +174,8 @@ typedef enum phks_hks_scaling {
     /* HKS_t(x) divided by its mass-weighted mean over the mesh, which is
      * the heat trace sum_i exp(-t lambda_i) over the total mass. Removes
      * the 1/area level that large t approaches, which a partial scan or a
-     * cut model shares with nothing: only the shape of the heat remains. */
+     * cut model shares with nothing: only the shape of the heat remains.
+     * Measured worse than NONE on every kind of query (docs/retrieval.md). */
     PHKS_HKS_SCALING_MEAN = 1,
     /* log(HKS_t(x) A_t(x) / (4 pi t)), A_t(x) the area of the mesh within
      * straight-line distance sqrt(4 t) of x (the heat kernel's width), all
