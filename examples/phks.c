@@ -12,7 +12,8 @@
 
 static const char usage_text[] =
     "usage: phks [--operator literal|random-walk] [--threads N]\n"
-    "            [--boundary-margin X] [--hks-scaling none|mean|local-area] COMMAND ...\n"
+    "            [--boundary-margin X] [--hks-scaling none|mean|local-area]\n"
+    "            COMMAND ...\n"
     "  phks signature MESH [-o SIG]\n"
     "  phks match A B                  (meshes or .sig files)\n"
     "  phks segment MESH -o OUT.ply\n"

@@ -520,8 +520,9 @@ PHKS_API size_t phks_signature_vector_length(const phks_signature *signature);
 /* Feature i: mesh vertex, position in input coordinates (3 doubles into
  * xyz), persistence, and the HKS vector (vector_length values, owned by the
  * signature; HKS at each of options.scales, scaled by options.hks_scaling:
- * logarithms, which may be negative, with the default LOCAL_AREA). Out-of-range i gives UINT32_MAX, PHKS_ERROR_INVALID_ARGUMENT,
- * NaN and NULL respectively. Features come most persistent first. */
+ * logarithms, which may be negative, with the default LOCAL_AREA).
+ * Out-of-range i gives UINT32_MAX, PHKS_ERROR_INVALID_ARGUMENT, NaN and
+ * NULL respectively. Features come most persistent first. */
 PHKS_API uint32_t phks_signature_feature_vertex(const phks_signature *signature,
                                                 size_t i);
 PHKS_API phks_status phks_signature_feature_position(

@@ -110,25 +110,23 @@ static void areas_range(void *ctx, size_t begin, size_t end)
 }
 
 /* A_t of every feature point for PHKS_HKS_SCALING_LOCAL_AREA into area
- * (sig->count x scale_count), the features spread over opt->threads and
- * progress reported (PHKS_STAGE_PERSISTENCE, 0.95 to 1) between batches:
- * on the 1.6M-vertex armadillo this takes about half a second. */
+ * (sig->count x scale_count), positions scaled by the unit box's `scale`,
+ * the features spread over opt->threads and progress reported
+ * (PHKS_STAGE_PERSISTENCE, 0.95 to 1) between batches: on the 1.6M-vertex
+ * armadillo this takes about half a second. */
 static phks_status local_areas(const phks_mesh *mesh, const phks_options *opt,
-                               const phks_signature *sig,
+                               double scale, const phks_signature *sig,
                                const double *radius2, double *area)
 {
     double *vertex_area = phks_malloc_array(mesh->vertex_count, sizeof *vertex_area);
     if (!vertex_area)
         return phks_fail_oom("feature vectors");
-    areas_ctx c = {mesh, sig, vertex_area, radius2, 1, area};
-    phks_status st = phks_unit_box_scale(mesh, (phks_box)opt->box, &c.scale);
-    if (st == PHKS_OK) {
-        phks_vertex_areas(mesh, c.scale, vertex_area);
-        unsigned threads = phks_thread_count(opt);
-        st = phks_run_batched(sig->count, threads, areas_range, &c, opt,
-                              PHKS_STAGE_PERSISTENCE, 0.95, 0.05,
-                              (sig->count + threads - 1) / threads);
-    }
+    phks_vertex_areas(mesh, scale, vertex_area);
+    areas_ctx c = {mesh, sig, vertex_area, radius2, scale, area};
+    unsigned threads = phks_thread_count(opt);
+    phks_status st = phks_run_batched(sig->count, threads, areas_range, &c, opt,
+                                      PHKS_STAGE_PERSISTENCE, 0.95, 0.05,
+                                      (sig->count + threads - 1) / threads);
     phks_free(vertex_area);
     return st;
 }
@@ -142,7 +140,7 @@ static phks_status local_areas(const phks_mesh *mesh, const phks_options *opt,
  * distance alone. */
 static phks_status feature_vectors(const phks_mesh *mesh,
                                    const phks_spectrum *spec,
-                                   const phks_options *opt,
+                                   const phks_options *opt, double scale,
                                    phks_signature *sig)
 {
     size_t S = opt->scale_count;
@@ -157,7 +155,7 @@ static phks_status feature_vectors(const phks_mesh *mesh,
         area = phks_malloc_array(sig->count, S * sizeof *area);
         if (!area)
             return phks_fail_oom("feature vectors");
-        phks_status st = local_areas(mesh, opt, sig, radius2, area);
+        phks_status st = local_areas(mesh, opt, scale, sig, radius2, area);
         if (st != PHKS_OK) {
             phks_free(area);
             return st;
@@ -185,31 +183,32 @@ static bool tapers(const phks_mesh *mesh, const phks_options *opt)
     return opt->boundary_margin != 0 && mesh->boundary_edge_count != 0;
 }
 
-/* Tapers h to zero at the mesh boundary: h(v) (1 - exp(-(d(v) / m)^2)),
- * d the distance to the boundary in the unit box, m the margin. A cut
- * piece's HKS rises towards the cut (heat that would have crossed it
- * stays), so without this every maximum of a partial scan sits on its
- * silhouette; with it, the boundary is a minimum and the maxima are those
- * the piece shares with its whole. Progress in PHKS_STAGE_PERSISTENCE
- * from 0 to TAPER_SPAN. */
+/* Progress in PHKS_STAGE_PERSISTENCE: the unit box's scale (which the
+ * taper and the local areas need) from 0 to SCALE_SPAN, the taper's
+ * distances up to TAPER_SPAN. */
+#define SCALE_SPAN 0.05
 #define TAPER_SPAN 0.3
 
+/* Tapers h to zero at the mesh boundary: h(v) (1 - exp(-(d(v) / m)^2)),
+ * d the distance to the boundary in the unit box (positions times
+ * `scale`), m the margin. A cut piece's HKS rises towards the cut (heat
+ * that would have crossed it stays), so without this every maximum of a
+ * partial scan sits on its silhouette; with it, the boundary is a minimum
+ * and the maxima are those the piece shares with its whole. */
 static phks_status taper_at_boundary(const phks_mesh *mesh,
-                                     const phks_options *opt, double *h)
+                                     const phks_options *opt, double scale,
+                                     double *h)
 {
     if (!tapers(mesh, opt))
         return PHKS_OK;
-    double scale, m = opt->boundary_margin * sqrt(4 * opt->feature_scale * opt->tau);
+    double m = opt->boundary_margin * sqrt(4 * opt->feature_scale * opt->tau);
     double *d = phks_malloc_array(mesh->vertex_count, sizeof *d);
     if (!d)
         return phks_fail_oom("boundary taper");
     /* Beyond 6 m the taper differs from 1 by less than e^-36. */
-    phks_status st = phks_unit_box_scale_progress(
-        mesh, (phks_box)opt->box, opt, PHKS_STAGE_PERSISTENCE, 0, 0.05, &scale);
-    if (st == PHKS_OK)
-        st = phks_boundary_distance(mesh, scale, 6 * m, opt,
-                                    PHKS_STAGE_PERSISTENCE, 0.05,
-                                    TAPER_SPAN - 0.05, d);
+    phks_status st = phks_boundary_distance(mesh, scale, 6 * m, opt,
+                                            PHKS_STAGE_PERSISTENCE, SCALE_SPAN,
+                                            TAPER_SPAN - SCALE_SPAN, d);
     for (size_t v = 0; st == PHKS_OK && v < mesh->vertex_count; v++)
         h[v] *= -expm1(-(d[v] / m) * (d[v] / m));
     phks_free(d);
@@ -253,13 +252,20 @@ phks_status phks_signature_from_spectrum(const phks_mesh *mesh,
         h[v] *= factor;
     if (st == PHKS_OK)
         st = phks_progress(&opt, PHKS_STAGE_PERSISTENCE, 0);
+    bool scaled = tapers(mesh, &opt) ||
+                  opt.hks_scaling == PHKS_HKS_SCALING_LOCAL_AREA;
+    double scale = 1;
+    if (st == PHKS_OK && scaled)
+        st = phks_unit_box_scale_progress(mesh, (phks_box)opt.box, &opt,
+                                          PHKS_STAGE_PERSISTENCE, 0,
+                                          SCALE_SPAN, &scale);
     if (st == PHKS_OK)
-        st = taper_at_boundary(mesh, &opt, h);
+        st = taper_at_boundary(mesh, &opt, scale, h);
     maxima = st == PHKS_OK ? phks_malloc_array(wanted, sizeof *maxima) : NULL;
     if (st == PHKS_OK && !maxima)
         st = phks_fail_oom("feature points");
     /* The persistence up to 0.95, the feature vectors after. */
-    double from = tapers(mesh, &opt) ? TAPER_SPAN : 0;
+    double from = tapers(mesh, &opt) ? TAPER_SPAN : scaled ? SCALE_SPAN : 0;
     if (st == PHKS_OK)
         st = phks_persistence_run(mesh, h, wanted, 0, maxima, &found, NULL,
                                   &opt, from, 0.95 - from);
@@ -276,7 +282,7 @@ phks_status phks_signature_from_spectrum(const phks_mesh *mesh,
         memcpy(sig->position + 3 * i, mesh->xyz + 3 * (size_t)v, 3 * sizeof(double));
         sig->persistence[i] = maxima[i].persistence;
     }
-    st = feature_vectors(mesh, spec, &opt, sig);
+    st = feature_vectors(mesh, spec, &opt, scale, sig);
     if (st == PHKS_OK)
         st = phks_progress(&opt, PHKS_STAGE_PERSISTENCE, 1);
 done:

@@ -72,6 +72,16 @@ static double nearest_feature(const phks_mesh *m, const phks_options *o)
     return nearest;
 }
 
+/* The paper's method taken literally: its operator, no boundary margin,
+ * plain HKS values. */
+static void paper_literal(phks_options *o)
+{
+    phks_options_init(o);
+    o->operator_kind = PHKS_OPERATOR_LITERAL;
+    o->boundary_margin = 0;
+    o->hks_scaling = PHKS_HKS_SCALING_NONE;
+}
+
 /* Every kind, cut and scanned: with the defaults, no feature within a
  * tenth of a kernel width of the cut (on thin pieces the margin shrinks,
  * so not the whole margin); the paper's literal method puts one within
@@ -81,9 +91,7 @@ START_TEST(no_feature_on_the_cut)
     unsigned kind = (unsigned)_i;
     phks_options def, literal;
     phks_options_init(&def);
-    phks_options_init(&literal);
-    literal.operator_kind = PHKS_OPERATOR_LITERAL;
-    literal.boundary_margin = 0;
+    paper_literal(&literal);
     int on_cut = 0;
     for (int how = INCOMPLETE; how <= PARTIAL; how++) {
         phks_mesh *m = piece_of(kind, 2, how, 10 + kind);
@@ -162,10 +170,7 @@ START_TEST(cut_piece_finds_its_kind)
 {
     phks_options def, literal;
     phks_options_init(&def);
-    phks_options_init(&literal);
-    literal.operator_kind = PHKS_OPERATOR_LITERAL;
-    literal.boundary_margin = 0;
-    literal.hks_scaling = PHKS_HKS_SCALING_NONE;
+    paper_literal(&literal);
     int worst, worst_literal;
     int first = own_kind_first(&def, INCOMPLETE, 1, &worst);
     int first_literal = own_kind_first(&literal, INCOMPLETE, 1, &worst_literal);
@@ -185,10 +190,7 @@ START_TEST(scan_finds_its_kind)
 {
     phks_options def, literal;
     phks_options_init(&def);
-    phks_options_init(&literal);
-    literal.operator_kind = PHKS_OPERATOR_LITERAL;
-    literal.boundary_margin = 0;
-    literal.hks_scaling = PHKS_HKS_SCALING_NONE;
+    paper_literal(&literal);
     int worst, worst_literal;
     int first = own_kind_first(&def, PARTIAL, 4, &worst);
     int first_literal = own_kind_first(&literal, PARTIAL, 4, &worst_literal);
