@@ -22,9 +22,10 @@
  *     last two blocks twice and the whole basis once, Cholesky QR twice for
  *     each new block) until the top k + guard Ritz pairs of T = V^T p(B) V
  *     are converged (tridiagonal reduction of T and MRRR for the pairs).
- *  3. The top k Ritz vectors, with their Rayleigh quotients in B, are the
- *     eigenpairs, whose residuals |B x - lambda x| are computed explicitly
- *     and must be below tolerance * |B|; where they are not, Rayleigh-Ritz
+ *  3. The top k Ritz vectors, with the eigenvalues of B their Ritz values
+ *     stand for (p^-1), are the eigenpairs; one product with random
+ *     combinations of them bounds their residuals |B x - lambda x|, which
+ *     must be below tolerance * |B|; where they are not, Rayleigh-Ritz
  *     with B on the top k + guard Ritz vectors. If that fails too, Lanczos
  *     goes on; if the cut turned out to lie below lambda_k, the solve
  *     restarts with a higher one (at most three times); if the basis would
@@ -213,11 +214,8 @@ typedef struct {
     double *theta;          /* room eigenvalues of T                         */
     lapack_int *support;    /* 2 room, for dstemr                            */
     double *tfull;          /* room x room: T, then its tridiagonal reduction */
-    double *tridiag;        /* 2 room: T's tridiagonal form (diagonal, then
-                               off-diagonal), kept between the two rounds
-                               of a check                                    */
-    double *diag, *off, *reflect; /* room each: dstemr's copy of it, and the
-                               reflectors' scalars                           */
+    double *diag, *off, *reflect; /* room each: T's tridiagonal form (dstemr
+                               overwrites it), and the reflectors' scalars   */
     double *edge;           /* room x b: Q^T of the last b unit vectors      */
     double *gram_parts;     /* partial Gram matrices of Cholesky QR          */
     double *saved;          /* n x b row-major: the block before its QR      */
@@ -238,7 +236,6 @@ static void release(lanczos *L)
     phks_free(L->theta);
     phks_free(L->support);
     phks_free(L->tfull);
-    phks_free(L->tridiag);
     phks_free(L->diag);
     phks_free(L->off);
     phks_free(L->reflect);
@@ -280,7 +277,6 @@ static phks_status reserve(lanczos *L, size_t columns)
     GROW(theta, room);
     GROW(support, 2 * room);
     GROW(tfull, room * room);
-    GROW(tridiag, 2 * room);
     GROW(diag, room);
     GROW(off, room);
     GROW(reflect, room);
@@ -538,50 +534,43 @@ static phks_status next_block(lanczos *L, size_t m, double *r, double scale)
  * the residuals), and the eigenvectors of T's tridiagonal form into ritz
  * (leading dimension m; ritz_vectors turns them into T's). The reduction
  * to tridiagonal form costs a fraction of dsyevr's subset path (bisection
- * and inverse iteration), and MRRR (dstemr) gives the pairs. Asked for a
- * subset, dstemr finds the eigenvalues by bisection: for more than a
- * quarter of them that took 2.5-4 times as long as computing every pair
- * (dqds) and keeping the subset (m of 256-736, 102-370 pairs, on meshes
- * of 5k-15k vertices); for fewer, about as long. The reflectors are
- * applied only to the b unit vectors the residuals need,
- * and to the Ritz vectors once they are wanted. With reduce false, the
- * reduction of the previous call (same T, same m) serves again. */
-static phks_status eig_t(lanczos *L, size_t m, size_t il, size_t iu, bool reduce)
+ * and inverse iteration), and MRRR (dstemr) gives the pairs: every pair,
+ * of which the subset is kept. Asked for a subset, dstemr finds the
+ * eigenvalues by bisection: for the 102 pairs nearest the cut that took
+ * 18 ms at m = 624 against 23 ms for all 624 pairs (dqds), and for more
+ * than a quarter of them 2.5-4 times as long as all (m of 256-736, on
+ * meshes of 5k-15k vertices), so a check that looked at the pairs nearest
+ * the cut first and at the others only when those passed cost more, not
+ * less, once the reduction (about 20 ms) is counted. The reflectors are
+ * applied only to the b unit vectors the residuals need, and to the Ritz
+ * vectors once they are wanted. */
+static phks_status eig_t(lanczos *L, size_t m, size_t il, size_t iu)
 {
     size_t b = L->b, count = iu - il + 1;
-    lapack_int info;
-    if (reduce) {
-        for (size_t j = 0; j < m; j++)
-            memcpy(L->tfull + j * m, L->t + j * L->room, (j + 1) * sizeof(double));
-        info = LAPACKE_dsytrd(LAPACK_COL_MAJOR, 'U', (lapack_int)m, L->tfull,
-                              (lapack_int)m, L->tridiag, L->tridiag + m, L->reflect);
-        if (info != 0)
-            return phks_fail(PHKS_ERROR_SOLVER, "Lanczos: dsytrd info %d", (int)info);
-        memset(L->edge, 0, m * b * sizeof(double));
-        for (size_t j = 0; j < b; j++)
-            L->edge[j * m + m - b + j] = 1;
-        info = LAPACKE_dormtr(LAPACK_COL_MAJOR, 'L', 'U', 'T', (lapack_int)m,
-                              (lapack_int)b, L->tfull, (lapack_int)m, L->reflect,
-                              L->edge, (lapack_int)m);
-        if (info != 0)
-            return phks_fail(PHKS_ERROR_SOLVER, "Lanczos: dormtr info %d", (int)info);
-    }
-    /* dstemr overwrites the tridiagonal matrix: it works on a copy */
-    memcpy(L->diag, L->tridiag, m * sizeof(double));
-    memcpy(L->off, L->tridiag + m, m * sizeof(double));
+    for (size_t j = 0; j < m; j++)
+        memcpy(L->tfull + j * m, L->t + j * L->room, (j + 1) * sizeof(double));
+    lapack_int info = LAPACKE_dsytrd(LAPACK_COL_MAJOR, 'U', (lapack_int)m,
+                                     L->tfull, (lapack_int)m, L->diag, L->off,
+                                     L->reflect);
+    if (info != 0)
+        return phks_fail(PHKS_ERROR_SOLVER, "Lanczos: dsytrd info %d", (int)info);
+    memset(L->edge, 0, m * b * sizeof(double));
+    for (size_t j = 0; j < b; j++)
+        L->edge[j * m + m - b + j] = 1;
+    info = LAPACKE_dormtr(LAPACK_COL_MAJOR, 'L', 'U', 'T', (lapack_int)m,
+                          (lapack_int)b, L->tfull, (lapack_int)m, L->reflect,
+                          L->edge, (lapack_int)m);
+    if (info != 0)
+        return phks_fail(PHKS_ERROR_SOLVER, "Lanczos: dormtr info %d", (int)info);
     lapack_int found = 0;
     lapack_logical tryrac = 1;
-    bool all = count > m / 4;
-    info = LAPACKE_dstemr(LAPACK_COL_MAJOR, 'V', all ? 'A' : 'I', (lapack_int)m,
-                          L->diag, L->off, 0, 0, (lapack_int)il, (lapack_int)iu,
-                          &found, L->theta, L->ritz, (lapack_int)m,
-                          (lapack_int)(all ? m : count), L->support, &tryrac);
-    if (info != 0 || (size_t)found != (all ? m : count))
+    info = LAPACKE_dstemr(LAPACK_COL_MAJOR, 'V', 'A', (lapack_int)m, L->diag,
+                          L->off, 0, 0, 0, 0, &found, L->theta, L->ritz,
+                          (lapack_int)m, (lapack_int)m, L->support, &tryrac);
+    if (info != 0 || (size_t)found != m)
         return phks_fail(PHKS_ERROR_SOLVER, "Lanczos: dstemr info %d", (int)info);
-    if (all) {
-        memmove(L->theta, L->theta + (il - 1), count * sizeof(double));
-        memmove(L->ritz, L->ritz + (il - 1) * m, count * m * sizeof(double));
-    }
+    memmove(L->theta, L->theta + (il - 1), count * sizeof(double));
+    memmove(L->ritz, L->ritz + (il - 1) * m, count * m * sizeof(double));
     cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, (int)b, (int)count,
                 (int)m, 1.0, L->edge, (int)m, L->ritz, (int)m, 0.0, L->bottom,
                 (int)b);
@@ -706,7 +695,7 @@ static phks_status probe(engine *eng, const phks_options *opt, size_t k,
         eng->fraction = 0.02 * (double)m / (double)L.cap;
     }
     if (st == PHKS_OK)
-        st = eig_t(&L, m, 1, m, true);
+        st = eig_t(&L, m, 1, m);
     if (st == PHKS_OK)
         st = ritz_vectors(&L, m, 0, m);
     if (st == PHKS_OK) {
@@ -735,93 +724,102 @@ static phks_status probe(engine *eng, const phks_options *opt, size_t k,
 
 /* ------------------------------------------------------------- the solve */
 
-/* The k Ritz vectors of the top of T taken as they are: Y = V S (into
- * vectors), their Rayleigh quotients y^T B y as eigenvalues, sorted, and
- * *worst the largest residual |B y - lambda y|. p is monotone on the wanted
- * interval, so a converged Ritz vector of p(B) is an eigenvector of B: where
- * two eigenvalues of B are close, their Ritz vectors may mix them, but by
- * no more than the residual in p(B) over the gap between their p values,
- * which bounds their residual in B by that residual over |p'|. The
- * residuals are checked all the same; where they fail, or the Ritz values
- * of p(B) do not all map below the cut, the Rayleigh-Ritz step with B on
- * all q vectors (rayleigh_ritz) settles it. Against that step this one
- * saves the products with the guard vectors, the q x q eigenproblem and
- * two of the four n x q x k products. */
-static phks_status ritz_pairs(lanczos *L, const engine *eng, size_t m,
-                              size_t q, size_t k, double *values,
+/* The eigenvalue of B that p maps to theta, for theta >= 1 (p(lambda) =
+ * T_d((c - lambda) / e) and T_d(x) = cosh(d acosh x) for x >= 1), or any
+ * theta when d = 1. Well conditioned: where acosh is steep (theta near 1),
+ * cosh flattens it again. */
+static double filter_inverse(const filter *f, double theta)
+{
+    if (f->degree == 1)
+        return f->c - f->e * theta;
+    return f->c - f->e * cosh(acosh(theta) / f->degree);
+}
+
+/* The residuals' sketch (ritz_pairs): SKETCH columns, one product, and a
+ * bound that fails with probability (8 / SKETCH_FACTOR)^(SKETCH / 2). */
+#define SKETCH BLOCK
+#define SKETCH_FACTOR 80.0
+
+/* The k Ritz vectors of the top of T taken as they are, X = V S (into
+ * vectors), with the eigenvalues p^-1(theta) of B, ascending; *worst is a
+ * bound on their largest residual |B x - lambda x| (below).
+ *
+ * Why no Rayleigh quotients. p is monotone on the wanted interval, so a
+ * converged Ritz vector of p(B) is an eigenvector of B, and its Ritz value
+ * theta, accurate to rounding errors in |p(B)|, gives the eigenvalue: the
+ * error in lambda is that over |p'|, a few units in the last place of |B|
+ * (the Rayleigh quotient's own). Where two eigenvalues of B are close,
+ * their Ritz vectors may mix them, but by no more than the residual in p(B)
+ * over the gap between their p values, which bounds their residual in B by
+ * that residual over |p'|. And if fewer than k eigenvalues lay below the
+ * cut, the k-th largest eigenvalue of p(B), hence theta_k, would be at most
+ * 1 (interlacing): theta_k > 1 shows that the k values are the lowest.
+ *
+ * Why a sketch. The residuals R = B X - X Lambda are still checked, as a
+ * safety net under that argument, but not column by column (k / BLOCK
+ * products: 17% of all the products of a solve on PSB meshes): the
+ * product of B with SKETCH random combinations X g_j, g_j uniform in
+ * [-1/2, 1/2]^k, gives R g_j. If a column r_e of R has |r_e| = rho, then
+ * with u = R^T r_e / |R^T r_e|, |R g| >= rho |u^T g|, and u^T g has a
+ * density of at most sqrt(2) (Ball: the largest central section of the
+ * unit cube), so P(sum_j |R g_j|^2 <= rho^2 x) <= P(every |u^T g_j| <=
+ * sqrt x) <= (8 x)^(SKETCH / 2). *worst = sqrt(SKETCH_FACTOR sum_j
+ * |R g_j|^2) is therefore below the largest residual with probability at
+ * most (8 / SKETCH_FACTOR)^(SKETCH / 2) = 1e-8. Where the bound exceeds the
+ * tolerance, or theta_k <= 1, the Rayleigh-Ritz step with B on all q
+ * vectors (rayleigh_ritz) settles it. */
+static phks_status ritz_pairs(lanczos *L, const engine *eng, const filter *f,
+                              size_t m, size_t q, size_t k, double *values,
                               double *vectors, double *worst)
 {
-    size_t n = L->n, b = L->b;
+    size_t n = L->n;
     phks_status st = PHKS_OK;
-    double *by = phks_malloc_array(n, b * sizeof(double));
-    double *y = phks_malloc_array(n, b * sizeof(double));
-    size_t *rank = phks_malloc_array(k, sizeof *rank);
-    double *column = phks_malloc_array(n, sizeof *column);
-    if (!by || !y || !rank || !column) {
+    double *s = phks_malloc_array(m, k * sizeof(double));
+    double *g = phks_malloc_array(k, 2 * SKETCH * sizeof(double));
+    double *y = phks_malloc_array(n, 2 * SKETCH * sizeof(double));
+    double *by = phks_malloc_array(n, SKETCH * sizeof(double));
+    if (!s || !g || !y || !by) {
         st = phks_fail_oom("Lanczos Ritz pairs");
         goto done;
     }
-    /* Ritz vectors of the top k: columns q - k .. q - 1 of ritz, theta
-     * ascending, so the largest (the smallest eigenvalue of B) last */
+    /* theta ascending in columns q - k .. q - 1 of ritz: the largest, the
+     * smallest eigenvalue of B, goes first */
+    for (size_t e = 0; e < k; e++) {
+        size_t from = q - 1 - e;
+        memcpy(s + e * m, L->ritz + from * m, m * sizeof(double));
+        double theta = L->theta[from + 1]; /* theta[0]: the (q+1)-th */
+        values[e] = f->degree > 1 && !(theta > 1) ? f->c - f->e
+                                                  : filter_inverse(f, theta);
+        /* monotone in exact arithmetic; rounding must not break the order */
+        if (e > 0 && values[e] < values[e - 1])
+            values[e] = values[e - 1];
+    }
     cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)n, (int)k,
-                (int)m, 1.0, L->v, (int)n, L->ritz + (q - k) * m, (int)m, 0.0,
-                vectors, (int)n);
+                (int)m, 1.0, L->v, (int)n, s, (int)m, 0.0, vectors, (int)n);
+    /* G (k x SKETCH) and Lambda G beside it; Y = X [G, Lambda G] */
+    phks_random_fill(g, k * SKETCH, 0x5EEDull);
+    for (size_t j = 0; j < SKETCH; j++)
+        for (size_t e = 0; e < k; e++)
+            g[(SKETCH + j) * k + e] = values[e] * g[j * k + e];
+    cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)n,
+                (int)(2 * SKETCH), (int)k, 1.0, vectors, (int)n, g, (int)k, 0.0,
+                y, (int)n);
     filter plain = {1, 0, 1};
-    double w = 0;
-    for (size_t j = 0; j < k; j += b) {
-        size_t cols = k - j < b ? k - j : b;
-        memcpy(y, vectors + j * n, cols * n * sizeof(double));
-        memset(y + cols * n, 0, (b - cols) * n * sizeof(double));
-        st = apply_filter(eng, &plain, y, by, L->rows, n);
-        if (st != PHKS_OK)
-            goto done;
-        for (size_t c = 0; c < cols; c++) {
-            /* by holds -B y */
-            const double *x = y + c * n, *bx = by + c * n;
-            double lambda = -cblas_ddot((int)n, x, 1, bx, 1), sum = 0;
-            for (size_t i = 0; i < n; i++) {
-                double d = bx[i] + lambda * x[i];
-                sum += d * d;
-            }
-            w = fmax(w, sqrt(sum));
-            values[j + c] = lambda;
-        }
+    st = apply_filter(eng, &plain, y, by, L->rows, n);
+    if (st != PHKS_OK)
+        goto done;
+    /* by = -B X G: R G = -by - X Lambda G */
+    double sum = 0;
+    for (size_t i = 0; i < n * SKETCH; i++) {
+        double d = by[i] + y[n * SKETCH + i];
+        sum += d * d;
     }
-    *worst = w;
-    /* ascending eigenvalues (ties by position, which is theta's order) */
-    for (size_t e = 0; e < k; e++) {
-        size_t at = e;
-        while (at > 0 && values[rank[at - 1]] > values[e]) {
-            rank[at] = rank[at - 1];
-            at--;
-        }
-        rank[at] = e;
-    }
-    for (size_t e = 0; e < k; e++) {
-        /* apply the permutation cycle by cycle; rank[e] = k marks done */
-        if (rank[e] == k || rank[e] == e)
-            continue;
-        double value = values[e];
-        memcpy(column, vectors + e * n, n * sizeof(double));
-        size_t at = e;
-        for (;;) {
-            size_t from = rank[at];
-            rank[at] = k;
-            if (from == e) {
-                values[at] = value;
-                memcpy(vectors + at * n, column, n * sizeof(double));
-                break;
-            }
-            values[at] = values[from];
-            memcpy(vectors + at * n, vectors + from * n, n * sizeof(double));
-            at = from;
-        }
-    }
+    *worst = sqrt(SKETCH_FACTOR * sum);
 done:
-    phks_free(by);
+    phks_free(s);
+    phks_free(g);
     phks_free(y);
-    phks_free(rank);
-    phks_free(column);
+    phks_free(by);
     return st;
 }
 
@@ -938,33 +936,22 @@ static phks_status solve(engine *eng, const filter *f, size_t k,
         if (st != PHKS_OK)
             break;
         if (m >= next_check || m + b > cap) {
-            /* The Ritz pairs nearest the cut converge last: check those
-             * first (fewer vectors), then all q when they pass. */
-            size_t part = q - k + 2 * b < q ? q - k + 2 * b : q;
-            double excess = -INFINITY;
-            for (int round = 0; round < 2 && excess <= 0; round++) {
-                size_t upto = round == 0 ? part : q;
-                if (round == 1 && part == q)
-                    break;
-                /* theta[0] is the (q+1)-th largest */
-                st = eig_t(&L, m, m - q, m - q + upto, round == 0);
-                if (st == PHKS_OK)
-                    st = phks_progress(opt, PHKS_STAGE_EIGEN, eng->fraction);
-                if (st != PHKS_OK)
-                    break;
-                double floor_mu = L.theta[0];
-                /* log of the largest ratio residual / threshold */
-                excess = -INFINITY;
-                for (size_t e = 1 + (q - k); e <= upto; e++) {
-                    double gap = L.theta[e] - floor_mu;
-                    double res = ritz_residual(&L, r, e);
-                    double x = gap > 0 ? log(res / (strict * opt->tolerance * gap))
-                                       : INFINITY;
-                    excess = isnan(x) ? INFINITY : fmax(excess, x);
-                }
-            }
+            /* theta[0] is the (q+1)-th largest */
+            st = eig_t(&L, m, m - q, m);
+            if (st == PHKS_OK)
+                st = phks_progress(opt, PHKS_STAGE_EIGEN, eng->fraction);
             if (st != PHKS_OK)
                 break;
+            double floor_mu = L.theta[0];
+            /* log of the largest ratio residual / threshold */
+            double excess = -INFINITY;
+            for (size_t e = 1 + (q - k); e <= q; e++) {
+                double gap = L.theta[e] - floor_mu;
+                double res = ritz_residual(&L, r, e);
+                double x = gap > 0 ? log(res / (strict * opt->tolerance * gap))
+                                   : INFINITY;
+                excess = isnan(x) ? INFINITY : fmax(excess, x);
+            }
             bool ok = excess <= 0;
             /* Ritz vectors of the top q are columns 1..q */
             if (ok) {
@@ -973,7 +960,7 @@ static phks_status solve(engine *eng, const filter *f, size_t k,
                 if (st != PHKS_OK)
                     break;
                 memmove(L.ritz, L.ritz + m, q * m * sizeof(double));
-                st = ritz_pairs(&L, eng, m, q, k, values, vectors, &worst);
+                st = ritz_pairs(&L, eng, f, m, q, k, values, vectors, &worst);
                 if (st == PHKS_OK &&
                     (worst > tol || (f->degree > 1 && values[k - 1] >= f->c - f->e)))
                     st = rayleigh_ritz(&L, eng, m, q, k, values, vectors, &worst);
