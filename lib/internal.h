@@ -231,8 +231,9 @@ void phks_operator_apply(const phks_operator_matrix *op, const double *x,
 typedef struct phks_operator_pairs {
     size_t n, pairs;        /* rows, (n + 1) / 2 pairs                  */
     uint32_t *order;        /* n: row r is point order[r] of the operator */
-    size_t *start;          /* pairs + 1 offsets into col               */
-    uint32_t *col;
+    size_t *start;          /* pairs + 1 offsets into the columns       */
+    uint32_t *col;          /* the columns, when n > 65536 ...          */
+    uint16_t *col16;        /* ... or here: one of the two is NULL      */
     double *val;            /* 2 per entry: rows 2g and 2g + 1          */
     unsigned threads;       /* products run on this many threads,      */
     size_t bound[PHKS_PAIR_MAX_THREADS + 1]; /* on these pair ranges of
