@@ -796,8 +796,9 @@ static phks_status ritz_pairs(lanczos *L, const engine *eng, const filter *f,
         if (e > 0 && values[e] < values[e - 1])
             values[e] = values[e - 1];
     }
-    cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)n, (int)k,
-                (int)m, 1.0, L->v, (int)n, s, (int)m, 0.0, vectors, (int)n);
+    st = phks_ritz_product(L->v, n, m, s, k, vectors, eng->pm->threads, eng->avx2);
+    if (st != PHKS_OK)
+        goto done;
     /* G (k x SKETCH) and Lambda G beside it; Y = X [G, Lambda G] */
     phks_random_fill(g, k * SKETCH, 0x5EEDull);
     for (size_t j = 0; j < SKETCH; j++)

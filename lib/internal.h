@@ -251,6 +251,12 @@ void phks_operator_pairs_poly(const phks_operator_pairs *pm, bool avx2,
                               const double *x, const double *z, double *out,
                               double alpha, double gamma, double beta);
 
+/* ---- the Ritz vectors' product (ritz_product.c) */
+/* x = v s: v n x m, s m x k, x n x k, column-major with leading dimensions
+ * n, m, n; on `threads` threads, the same bits for any count. */
+phks_status phks_ritz_product(const double *v, size_t n, size_t m, const double *s,
+                              size_t k, double *x, unsigned threads, bool avx2);
+
 /* ---- Gram-Schmidt products (block_project.c) */
 /* C = V^T W, then W -= V C, where V is n x cnt column-major (leading
  * dimension n), W n x PHKS_PAIR_BLOCK row-major and C cnt x

@@ -19,8 +19,10 @@
  * of well-isolated eigenvalues themselves. Also: one zero eigenvalue per
  * cluster of vertices joined by the kernel, eigen_count above the vertex
  * count, bit-identical repeated runs (and thread counts), cancellation
- * from inside each solver.
+ * from inside each solver; a tolerance that forces the fallbacks; the
+ * Ritz vectors' packed product against cblas_dgemm.
  */
+#include "simd.h"
 #include "soup.h"
 
 #include <cblas.h>
@@ -486,6 +488,86 @@ START_TEST(test_more_pairs_than_vertices)
 }
 END_TEST
 
+/* phks_ritz_product against cblas_dgemm, at sizes that are not multiples
+ * of its tiles (8 x 6) or stretches (64 rows), the same bits for 1, 2 and
+ * 3 threads, with and without AVX2. */
+START_TEST(test_ritz_product)
+{
+    const size_t sizes[][3] = {{1, 1, 1}, {7, 5, 3}, {203, 37, 13}, {640, 64, 12}};
+    for (size_t c = 0; c < sizeof sizes / sizeof *sizes; c++) {
+        size_t n = sizes[c][0], m = sizes[c][1], k = sizes[c][2];
+        double *v = malloc(n * m * sizeof *v), *s = malloc(m * k * sizeof *s);
+        double *ref = malloc(n * k * sizeof *ref), *x = malloc(n * k * sizeof *x);
+        double *first = malloc(n * k * sizeof *first);
+        REQUIRE(v && s && ref && x && first);
+        phks_random_fill(v, n * m, 3 + c);
+        phks_random_fill(s, m * k, 5 + c);
+        cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)n, (int)k, (int)m,
+                    1.0, v, (int)n, s, (int)m, 0.0, ref, (int)n);
+        for (int avx2 = 0; avx2 < 2; avx2++)
+            for (unsigned threads = 1; threads <= 3; threads++) {
+                REQUIRE(phks_ritz_product(v, n, m, s, k, x, threads,
+                                          avx2 && phks_cpu_avx2()) == PHKS_OK);
+                double worst = 0, scale = 0;
+                for (size_t i = 0; i < n * k; i++) {
+                    worst = fmax(worst, fabs(x[i] - ref[i]));
+                    scale = fmax(scale, fabs(ref[i]));
+                }
+                REQUIRE_MSG(worst <= 1e-14 * (double)m * fmax(scale, 1e-300),
+                            "%zu x %zu x %zu, %u threads: off by %.3g", n, m, k,
+                            threads, worst);
+                if (threads == 1)
+                    memcpy(first, x, n * k * sizeof *x);
+                else
+                    REQUIRE_MSG(memcmp(first, x, n * k * sizeof *x) == 0,
+                                "%zu x %zu x %zu: %u threads differ from 1", n, m,
+                                k, threads);
+            }
+        free(v);
+        free(s);
+        free(ref);
+        free(x);
+        free(first);
+    }
+}
+END_TEST
+
+/* A tolerance below what the filtered Lanczos reaches: its residual bound
+ * fails, Rayleigh-Ritz fails, plain Lanczos follows and then the dense
+ * solver; whatever path answers, it must be as right as the others. */
+START_TEST(test_strict_tolerance)
+{
+    uint64_t rng = 27;
+    const double c[3] = {0, 0, 0}, ax[3] = {1.0, 0.8, 0.6};
+    soup s = {0};
+    add_icosphere(&s, 3, c, ax, 0.02, &rng); /* 642 */
+    phks_mesh *mesh = soup_mesh(&s);
+    soup_free(&s);
+    reference ref;
+    reference_solve(mesh, 0.001, 3.5, PHKS_OPERATOR_LITERAL, &ref);
+    size_t k = pick_count(&ref, 90, 110);
+    phks_options opt;
+    phks_options_init(&opt);
+    opt.box = PHKS_BOX_AXIS_ALIGNED;
+    opt.solver = PHKS_SOLVER_LANCZOS;
+    opt.operator_kind = PHKS_OPERATOR_LITERAL;
+    opt.tau = 0.001;
+    opt.eigen_count = (uint32_t)k;
+    opt.tolerance = 1e-15;
+    phks_spectrum *spec = NULL;
+    phks_status st = phks_spectrum_compute(mesh, &opt, &spec);
+    REQUIRE_MSG(st == PHKS_OK, "%s (%s)", phks_status_string(st),
+                phks_last_error_message());
+    accuracy acc = {0};
+    compare("strict-tolerance", spec, &ref, k, &acc);
+    printf("strict-tolerance/lanczos/k=%zu  eig %.1e  ortho %.1e  hks %.1e\n", k,
+           acc.eig, acc.ortho, acc.hks);
+    phks_spectrum_free(spec);
+    reference_free(&ref);
+    phks_mesh_free(mesh);
+}
+END_TEST
+
 static void require_identical(const phks_spectrum *a, const phks_spectrum *b,
                               const char *what)
 {
@@ -621,6 +703,8 @@ static Suite *suite(void)
     tcase_add_test(tc, test_components_joined_by_kernel);
     tcase_add_test(tc, test_more_pairs_than_vertices);
     tcase_add_test(tc, test_repeatable);
+    tcase_add_test(tc, test_strict_tolerance);
+    tcase_add_test(tc, test_ritz_product);
     tcase_add_test(tc, test_cancel_eigen);
     suite_add_tcase(s, tc);
     return s;
