@@ -228,6 +228,9 @@ void phks_operator_apply(const phks_operator_matrix *op, const double *x,
  * row-major n x PHKS_PAIR_BLOCK blocks in that numbering. */
 #define PHKS_PAIR_BLOCK 16
 #define PHKS_PAIR_MAX_THREADS 64
+/* Pair ranges of about equal entry counts per thread, taken by the
+ * team's threads as they become free (parallel.c). */
+#define PHKS_PAIR_PARTS_PER_THREAD 8
 typedef struct phks_operator_pairs {
     size_t n, pairs;        /* rows, (n + 1) / 2 pairs                  */
     uint32_t *order;        /* n: row r is point order[r] of the operator */
@@ -236,8 +239,9 @@ typedef struct phks_operator_pairs {
     uint16_t *col16;        /* ... or here: one of the two is NULL      */
     double *val;            /* 2 per entry: rows 2g and 2g + 1          */
     unsigned threads;       /* products run on this many threads,      */
-    size_t bound[PHKS_PAIR_MAX_THREADS + 1]; /* on these pair ranges of
-                               about equal entry counts                */
+    unsigned parts;         /* on this many pair ranges of about equal  */
+    size_t bound[PHKS_PAIR_MAX_THREADS * PHKS_PAIR_PARTS_PER_THREAD + 1];
+                            /* entry counts: part t is bound[t] ..     */
 } phks_operator_pairs;
 
 phks_status phks_operator_pairs_build(const phks_operator_matrix *op,

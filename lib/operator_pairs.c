@@ -122,19 +122,19 @@ static void pair_chunk(void *ctx, size_t begin, size_t end)
                   j->marks[t]);
 }
 
-/* Splits the pairs into `threads` ranges of about equal entry counts. */
+/* Splits the pairs into `parts` ranges of about equal entry counts. */
 static void balance(phks_operator_pairs *pm)
 {
     size_t total = pm->start[pm->pairs];
     size_t g = 0;
     pm->bound[0] = 0;
-    for (unsigned t = 1; t < pm->threads; t++) {
-        size_t goal = total / pm->threads * t + total % pm->threads * t / pm->threads;
+    for (unsigned t = 1; t < pm->parts; t++) {
+        size_t goal = total / pm->parts * t + total % pm->parts * t / pm->parts;
         while (g < pm->pairs && pm->start[g] < goal)
             g++;
         pm->bound[t] = g;
     }
-    pm->bound[pm->threads] = pm->pairs;
+    pm->bound[pm->parts] = pm->pairs;
 }
 
 phks_status phks_operator_pairs_build(const phks_operator_matrix *op,
@@ -149,6 +149,7 @@ phks_status phks_operator_pairs_build(const phks_operator_matrix *op,
     pm->n = n;
     pm->pairs = (n + 1) / 2;
     pm->threads = threads;
+    pm->parts = threads * PHKS_PAIR_PARTS_PER_THREAD;
     pm->order = phks_malloc_array(n, sizeof *pm->order);
     pm->start = phks_calloc(pm->pairs + 1, sizeof *pm->start);
     uint32_t *rank = phks_malloc_array(n, sizeof *rank);
@@ -312,12 +313,12 @@ void phks_operator_pairs_poly(const phks_operator_pairs *pm, bool avx2,
     poly_ctx p = {pm, x, z, out, alpha, gamma, beta};
 #if PHKS_HAVE_AVX2
     if (avx2) {
-        phks_parallel_for(pm->threads, pm->threads,
+        phks_parallel_for(pm->parts, pm->threads,
                           pm->col16 ? poly_avx2_narrow : poly_avx2_wide, &p);
         return;
     }
 #else
     (void)avx2;
 #endif
-    phks_parallel_for(pm->threads, pm->threads, poly_generic, &p);
+    phks_parallel_for(pm->parts, pm->threads, poly_generic, &p);
 }

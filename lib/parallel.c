@@ -9,10 +9,14 @@
  * (phks_team_enter .. phks_team_leave): an eigen-solve runs about 800
  * parallel loops on a 5k-vertex mesh, and creating and joining threads
  * for each was measurable. While a team is entered on a thread, the loops
- * that thread starts go to the team's workers, in the same chunks as
- * without it, so the results are the same too. A loop started while the
- * team is busy (a chunk that itself runs a parallel loop) creates threads
- * as before.
+ * that thread starts go to the team's threads in small runs of units that
+ * each thread takes as it becomes free (of a loop's n units, about
+ * n / (8 threads) per run): on a shared machine one thread is often
+ * slower than the other, and with equal halves the faster one waited for
+ * it. Every caller computes each unit alone (a row, a column, a
+ * stretch with its own slot for partial sums), so which thread takes which
+ * run does not change the results. A loop started while the team is busy
+ * (a chunk that itself runs a parallel loop) creates threads as before.
  */
 #include "internal.h"
 
@@ -49,7 +53,7 @@ typedef struct {
     unsigned index;
 } seat;
 
-/* A loop is published by writing its chunks and bumping generation
+/* A loop is published by writing its function and size and bumping generation
  * (release); every worker, with a chunk or without, answers by lowering
  * pending (release), so no worker can fall a loop behind. Both sides poll
  * first and sleep only after SPIN_ROUNDS; a sleeper is counted under the
@@ -61,11 +65,14 @@ struct phks_team {
     atomic_ulong generation;        /* bumped for each loop */
     atomic_uint pending;            /* workers not done with this loop */
     atomic_bool stopping;
-    unsigned used;                  /* chunks 1..used - 1 are the workers' */
+    unsigned used;                  /* workers 1..used - 1 take part */
+    phks_range_fn fn;               /* the loop: units [0, n), in runs of grain */
+    void *ctx;
+    size_t n, grain;
+    atomic_size_t next;             /* the first unit no thread has taken */
     unsigned sleepers;              /* workers asleep on wake (under lock) */
     bool waiting;                   /* the caller asleep on done (under lock) */
     bool busy;                      /* a loop is running (caller's thread only) */
-    chunk chunks[MAX_THREADS];
     seat seats[MAX_THREADS];
     pthread_t ids[MAX_THREADS];
 };
@@ -100,6 +107,19 @@ static unsigned long next_generation(phks_team *tm, unsigned long seen)
     return g;
 }
 
+/* Takes runs of the current loop until none is left. */
+static void take_runs(phks_team *tm)
+{
+    for (;;) {
+        size_t begin = atomic_fetch_add_explicit(&tm->next, tm->grain,
+                                                 memory_order_relaxed);
+        if (begin >= tm->n)
+            return;
+        size_t end = tm->n - begin > tm->grain ? begin + tm->grain : tm->n;
+        tm->fn(tm->ctx, begin, end);
+    }
+}
+
 static void *team_worker(void *arg)
 {
     const seat *s = arg;
@@ -109,10 +129,8 @@ static void *team_worker(void *arg)
         seen = next_generation(tm, seen);
         if (atomic_load(&tm->stopping))
             break;
-        if (s->index < tm->used) {
-            chunk c = tm->chunks[s->index];
-            run_chunk(&c);
-        }
+        if (s->index < tm->used)
+            take_runs(tm);
         if (atomic_fetch_sub_explicit(&tm->pending, 1, memory_order_acq_rel) == 1) {
             pthread_mutex_lock(&tm->lock);
             if (tm->waiting)
@@ -143,6 +161,7 @@ phks_team *phks_team_enter(unsigned threads)
     atomic_init(&tm->generation, 0);
     atomic_init(&tm->pending, 0);
     atomic_init(&tm->stopping, false);
+    atomic_init(&tm->next, 0);
     if (pthread_mutex_init(&tm->lock, NULL) != 0) {
         phks_free(tm);
         return NULL;
@@ -186,14 +205,18 @@ void phks_team_leave(phks_team *tm)
     team_destroy(tm);
 }
 
-/* The loop's chunks on the team: chunk 0 and those without a worker on
- * the calling thread. */
-static void team_run(phks_team *tm, chunk *chunks, unsigned threads)
+/* The loop on the team: the calling thread and workers 1 .. used - 1
+ * take runs of units until none is left. */
+static void team_run(phks_team *tm, phks_range_fn fn, void *ctx, size_t n,
+                     unsigned threads)
 {
     unsigned used = threads < tm->workers + 1 ? threads : tm->workers + 1;
     tm->busy = true;
-    for (unsigned t = 1; t < used; t++)
-        tm->chunks[t] = chunks[t];
+    tm->fn = fn;
+    tm->ctx = ctx;
+    tm->n = n;
+    tm->grain = n / (8 * (size_t)used) > 1 ? n / (8 * (size_t)used) : 1;
+    atomic_store_explicit(&tm->next, 0, memory_order_relaxed);
     tm->used = used;
     atomic_store_explicit(&tm->pending, tm->workers, memory_order_relaxed);
     atomic_fetch_add_explicit(&tm->generation, 1, memory_order_release);
@@ -201,9 +224,7 @@ static void team_run(phks_team *tm, chunk *chunks, unsigned threads)
     if (tm->sleepers)
         pthread_cond_broadcast(&tm->wake);
     pthread_mutex_unlock(&tm->lock);
-    run_chunk(&chunks[0]);
-    for (unsigned t = used; t < threads; t++)
-        run_chunk(&chunks[t]);
+    take_runs(tm);
     bool finished = false;
     for (int i = 0; i < SPIN_ROUNDS && !finished; i++) {
         finished = atomic_load_explicit(&tm->pending, memory_order_acquire) == 0;
@@ -240,16 +261,16 @@ void phks_parallel_for(size_t n, unsigned threads, phks_range_fn fn, void *ctx)
             fn(ctx, 0, n);
         return;
     }
+    phks_team *tm = current_team;
+    if (tm && !tm->busy) {
+        team_run(tm, fn, ctx, n, threads);
+        return;
+    }
     chunk chunks[MAX_THREADS];
     pthread_t ids[MAX_THREADS];
     bool started[MAX_THREADS] = {false};
     for (unsigned t = 0; t < threads; t++)
         chunks[t] = (chunk){fn, ctx, n * t / threads, n * (t + 1) / threads};
-    phks_team *tm = current_team;
-    if (tm && !tm->busy) {
-        team_run(tm, chunks, threads);
-        return;
-    }
     /* Chunk 0 runs on the calling thread; a chunk whose thread cannot be
      * created runs there too, so a failure to spawn costs only speed. */
     for (unsigned t = 1; t < threads; t++)

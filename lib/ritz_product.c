@@ -23,13 +23,14 @@
 #define MR 8       /* rows of a tile: two AVX2 registers                  */
 #define NR 6       /* columns of a tile: 12 accumulators                  */
 #define STRETCH 64 /* rows packed at a time: 64 x 624 doubles is 320 KB   */
+#define UNITS_PER_THREAD 4 /* runs of stretches, taken as threads come free */
 
 typedef struct {
     const double *v, *spack;
     double *x;
     size_t n, m, k, panels;
-    double *vpack[PHKS_PAIR_MAX_THREADS];
-    unsigned threads;
+    double *vpack[PHKS_PAIR_MAX_THREADS * UNITS_PER_THREAD]; /* one per unit */
+    size_t units;
     bool avx2;
 } product_ctx;
 
@@ -112,14 +113,14 @@ __attribute__((target("avx2,fma"))) static void tile_avx2(size_t m, const double
 }
 #endif
 
-/* Chunk t of the threads: its share of the stretches, packed in turn. */
+/* Units [begin, end): each a run of stretches, packed in turn. */
 static void product_range(void *ctx, size_t begin, size_t end)
 {
     const product_ctx *p = ctx;
     size_t stretches = (p->n + STRETCH - 1) / STRETCH;
     for (size_t t = begin; t < end; t++) {
         double *vp = p->vpack[t];
-        for (size_t s = stretches * t / p->threads; s < stretches * (t + 1) / p->threads;
+        for (size_t s = stretches * t / p->units; s < stretches * (t + 1) / p->units;
              s++) {
             size_t r0 = s * STRETCH, r1 = r0 + STRETCH < p->n ? r0 + STRETCH : p->n;
             pack_rows(p, r0, r1, vp);
@@ -148,10 +149,11 @@ phks_status phks_ritz_product(const double *v, size_t n, size_t m, const double 
         threads = 1;
     if (threads > PHKS_PAIR_MAX_THREADS)
         threads = PHKS_PAIR_MAX_THREADS;
-    product_ctx p = {v, NULL, x, n, m, k, (k + NR - 1) / NR, {NULL}, threads, avx2};
+    product_ctx p = {v, NULL, x, n, m, k, (k + NR - 1) / NR, {NULL},
+                     (size_t)threads * UNITS_PER_THREAD, avx2};
     phks_status st = PHKS_OK;
     double *spack = phks_malloc_array(p.panels * NR, m * sizeof(double));
-    for (unsigned t = 0; t < threads && spack; t++)
+    for (size_t t = 0; t < p.units && spack; t++)
         if (!(p.vpack[t] = phks_malloc_array(STRETCH, m * sizeof(double))))
             st = phks_fail_oom("Ritz vectors");
     if (!spack)
@@ -164,10 +166,10 @@ phks_status phks_ritz_product(const double *v, size_t n, size_t m, const double 
                     spack[(panel * m + j) * NR + c] = col < k ? s[col * m + j] : 0;
                 }
         p.spack = spack;
-        phks_parallel_for(threads, threads, product_range, &p);
+        phks_parallel_for(p.units, threads, product_range, &p);
     }
     phks_free(spack);
-    for (unsigned t = 0; t < threads; t++)
+    for (size_t t = 0; t < p.units; t++)
         phks_free(p.vpack[t]);
     return st;
 }
