@@ -580,7 +580,7 @@ static phks_status eig_t(lanczos *L, size_t m, size_t il, size_t iu)
 }
 
 /* Columns [first, first + count) of ritz, from eig_t's last call, become
- * eigenvectors of T. MRRR's vectors are orthogonal to a few hundred
+ * eigenvectors of T, in columns [0, count). MRRR's vectors are orthogonal to a few hundred
  * rounding errors only, where the eigenvectors (and the Rayleigh-Ritz
  * step, when it is needed) want them orthonormal to working precision:
  * Cholesky QR (a count x count Gram matrix) restores that; its loss of
@@ -589,7 +589,8 @@ static phks_status eig_t(lanczos *L, size_t m, size_t il, size_t iu)
  * suite stay M-orthonormal to 3e-15, as with two). */
 static phks_status ritz_vectors(lanczos *L, size_t m, size_t first, size_t count)
 {
-    double *s = L->ritz + first * m;
+    double *s = L->ritz;
+    memmove(s, s + first * m, count * m * sizeof(double));
     lapack_int info = LAPACKE_dormtr(LAPACK_COL_MAJOR, 'L', 'U', 'N',
                                      (lapack_int)m, (lapack_int)count, L->tfull,
                                      (lapack_int)m, L->reflect, s, (lapack_int)m);
@@ -803,9 +804,10 @@ static phks_status ritz_pairs(lanczos *L, const engine *eng, const filter *f,
     for (size_t j = 0; j < SKETCH; j++)
         for (size_t e = 0; e < k; e++)
             g[(SKETCH + j) * k + e] = values[e] * g[j * k + e];
-    cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)n,
-                (int)(2 * SKETCH), (int)k, 1.0, vectors, (int)n, g, (int)k, 0.0,
-                y, (int)n);
+    st = phks_ritz_product(vectors, n, k, g, 2 * SKETCH, y, eng->pm->threads,
+                           eng->avx2);
+    if (st != PHKS_OK)
+        goto done;
     filter plain = {1, 0, 1};
     st = apply_filter(eng, &plain, y, by, L->rows, n);
     if (st != PHKS_OK)
@@ -844,8 +846,9 @@ static phks_status rayleigh_ritz(lanczos *L, const engine *eng, size_t m,
         goto done;
     }
     /* Ritz vectors of the top q (theta ascending: the last q columns) */
-    cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)n, (int)q,
-                (int)m, 1.0, L->v, (int)n, L->ritz, (int)m, 0.0, y, (int)n);
+    st = phks_ritz_product(L->v, n, m, L->ritz, q, y, eng->pm->threads, eng->avx2);
+    if (st != PHKS_OK)
+        goto done;
     if (qb > q)
         memset(y + q * n, 0, (qb - q) * n * sizeof(double));
     filter plain = {1, 0, 1};
@@ -872,14 +875,15 @@ static phks_status rayleigh_ritz(lanczos *L, const engine *eng, size_t m,
         st = phks_fail(PHKS_ERROR_SOLVER, "Lanczos: dsyevd info %d", (int)info);
         goto done;
     }
-    cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)n, (int)k,
-                (int)q, 1.0, y, (int)n, g, (int)q, 0.0, vectors, (int)n);
-    st = phks_progress(eng->opt, PHKS_STAGE_EIGEN, eng->fraction);
+    st = phks_ritz_product(y, n, q, g, k, vectors, eng->pm->threads, eng->avx2);
+    if (st == PHKS_OK)
+        st = phks_progress(eng->opt, PHKS_STAGE_EIGEN, eng->fraction);
     if (st != PHKS_OK)
         goto done;
     /* residuals: B X - X Theta = (B Y) G_k - X Theta, into y */
-    cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)n, (int)k,
-                (int)q, 1.0, by, (int)n, g, (int)q, 0.0, y, (int)n);
+    st = phks_ritz_product(by, n, q, g, k, y, eng->pm->threads, eng->avx2);
+    if (st != PHKS_OK)
+        goto done;
     double w = 0;
     for (size_t e = 0; e < k; e++) {
         double s = 0;
@@ -957,22 +961,19 @@ static phks_status solve(engine *eng, const filter *f, size_t k,
             bool ok = excess <= 0;
             if (ok) {
                 double worst = INFINITY;
-                /* The top k Ritz vectors of T are columns q - k + 1 .. q of
-                 * ritz; Rayleigh-Ritz, if it is needed, takes all q. */
+                /* The top k Ritz vectors of T (columns q - k + 1 .. q of
+                 * ritz); Rayleigh-Ritz, if it is needed, takes all q. */
                 st = ritz_vectors(&L, m, 1 + q - k, k);
                 if (st != PHKS_OK)
                     break;
-                memmove(L.ritz, L.ritz + (1 + q - k) * m, k * m * sizeof(double));
                 st = ritz_pairs(&L, eng, f, m, q, k, values, vectors, &worst);
                 if (st == PHKS_OK &&
                     (worst > tol || (f->degree > 1 && values[k - 1] >= f->c - f->e))) {
                     st = eig_t(&L, m, m - q, m);
                     if (st == PHKS_OK)
                         st = ritz_vectors(&L, m, 1, q);
-                    if (st == PHKS_OK) {
-                        memmove(L.ritz, L.ritz + m, q * m * sizeof(double));
+                    if (st == PHKS_OK)
                         st = rayleigh_ritz(&L, eng, m, q, k, values, vectors, &worst);
-                    }
                 }
                 if (st != PHKS_OK)
                     break;

@@ -53,15 +53,15 @@ typedef struct {
     unsigned index;
 } seat;
 
-/* A loop is published by writing its function and size and bumping generation
- * (release); every worker, with a chunk or without, answers by lowering
- * pending (release), so no worker can fall a loop behind. Both sides poll
+/* A loop is published by writing its function and size and bumping
+ * generation (release); every worker, taking part or not, answers by
+ * lowering pending (release), so no worker can fall a loop behind. Both sides poll
  * first and sleep only after SPIN_ROUNDS; a sleeper is counted under the
  * lock, and the other side signals only where one is counted. */
 struct phks_team {
     pthread_mutex_t lock;
     pthread_cond_t wake, done;
-    unsigned workers;               /* started; worker i runs chunk i (1-based) */
+    unsigned workers;               /* started, numbered 1 .. workers */
     atomic_ulong generation;        /* bumped for each loop */
     atomic_uint pending;            /* workers not done with this loop */
     atomic_bool stopping;

@@ -1,6 +1,8 @@
 /*
  * ritz_product.c - X = V S for the eigen-solver's Ritz vectors (V: n x m,
- * S: m x k, X: n x k, all column-major), on the library's threads.
+ * S: m x k, X: n x k, all column-major), on the library's threads; also
+ * its other products of n-row vectors with a small matrix (the residuals'
+ * sketch, Rayleigh-Ritz).
  *
  * Why not the BLAS. This is the solve's largest product (n x 624 x 300 on
  * a 5k-vertex mesh) and, with OPENBLAS_NUM_THREADS=1, the longest serial

@@ -181,9 +181,8 @@ typedef struct {
     double seconds;
 } accuracy;
 
-static phks_spectrum *compute(const phks_mesh *mesh, int solver, int kind,
-                              double tau, size_t count, unsigned threads,
-                              double *seconds)
+static phks_options eigen_options(int solver, int kind, double tau, size_t count,
+                                  unsigned threads)
 {
     phks_options opt;
     phks_options_init(&opt);
@@ -193,14 +192,29 @@ static phks_spectrum *compute(const phks_mesh *mesh, int solver, int kind,
     opt.tau = tau;
     opt.eigen_count = (uint32_t)count;
     opt.threads = threads;
+    return opt;
+}
+
+static phks_spectrum *compute_with(const phks_mesh *mesh, const phks_options *opt,
+                                   double *seconds)
+{
     phks_spectrum *spec = NULL;
     double t0 = now();
-    phks_status st = phks_spectrum_compute(mesh, &opt, &spec);
+    phks_status st = phks_spectrum_compute(mesh, opt, &spec);
     if (seconds)
         *seconds = now() - t0;
-    REQUIRE_MSG(st == PHKS_OK, "solver %d, eigen_count %zu: %s (%s)", solver, count,
-                phks_status_string(st), phks_last_error_message());
+    REQUIRE_MSG(st == PHKS_OK, "solver %d, eigen_count %u: %s (%s)", (int)opt->solver,
+                (unsigned)opt->eigen_count, phks_status_string(st),
+                phks_last_error_message());
     return spec;
+}
+
+static phks_spectrum *compute(const phks_mesh *mesh, int solver, int kind,
+                              double tau, size_t count, unsigned threads,
+                              double *seconds)
+{
+    phks_options opt = eigen_options(solver, kind, tau, count, threads);
+    return compute_with(mesh, &opt, seconds);
 }
 
 /* max |Phi^T diag(m) Phi - I| */
@@ -546,18 +560,10 @@ START_TEST(test_strict_tolerance)
     reference ref;
     reference_solve(mesh, 0.001, 3.5, PHKS_OPERATOR_LITERAL, &ref);
     size_t k = pick_count(&ref, 90, 110);
-    phks_options opt;
-    phks_options_init(&opt);
-    opt.box = PHKS_BOX_AXIS_ALIGNED;
-    opt.solver = PHKS_SOLVER_LANCZOS;
-    opt.operator_kind = PHKS_OPERATOR_LITERAL;
-    opt.tau = 0.001;
-    opt.eigen_count = (uint32_t)k;
+    phks_options opt =
+        eigen_options(PHKS_SOLVER_LANCZOS, PHKS_OPERATOR_LITERAL, 0.001, k, 0);
     opt.tolerance = 1e-15;
-    phks_spectrum *spec = NULL;
-    phks_status st = phks_spectrum_compute(mesh, &opt, &spec);
-    REQUIRE_MSG(st == PHKS_OK, "%s (%s)", phks_status_string(st),
-                phks_last_error_message());
+    phks_spectrum *spec = compute_with(mesh, &opt, NULL);
     accuracy acc = {0};
     compare("strict-tolerance", spec, &ref, k, &acc);
     printf("strict-tolerance/lanczos/k=%zu  eig %.1e  ortho %.1e  hks %.1e\n", k,
