@@ -4,7 +4,7 @@
  * measures exactly what an application sees through the public API.
  *
  *   bench-stages [--solver auto|lanczos|arpack|dense] [--cutoff C]
- *                [--threads N] [--simplify-above N] [--simplify-target N]
+ *                [--tolerance T] [--threads N] [--simplify-above N] [--simplify-target N]
  *                [--decimate N] [--trace S] [--cancel-at T1,T2,...] MESH...
  *
  * Each mesh runs in its own child process so that the peak resident
@@ -308,6 +308,8 @@ int main(int argc, char **argv)
                                                     : PHKS_SOLVER_AUTO;
         else if (strcmp(argv[first], "--cutoff") == 0)
             opt.cutoff = atof(v);
+        else if (strcmp(argv[first], "--tolerance") == 0)
+            opt.tolerance = atof(v);
         else if (strcmp(argv[first], "--threads") == 0)
             opt.threads = (uint32_t)strtoul(v, NULL, 10);
         else if (strcmp(argv[first], "--simplify-above") == 0)
@@ -323,7 +325,7 @@ int main(int argc, char **argv)
     }
     if (first >= argc) {
         fprintf(stderr, "usage: bench-stages [--solver S] [--cutoff C] "
-                        "[--threads N] [--simplify-above N] [--simplify-target N] "
+                        "[--tolerance T] [--threads N] [--simplify-above N] [--simplify-target N] "
                         "[--decimate N] [--trace S] [--cancel-at T1,T2,...] "
                         "MESH...\n");
         return 2;
