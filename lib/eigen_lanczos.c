@@ -216,8 +216,9 @@ typedef struct {
     double *theta;          /* room eigenvalues of T                         */
     lapack_int *support;    /* 2 room, for dstemr                            */
     double *tfull;          /* room x room: T, then its tridiagonal reduction */
-    double *diag, *off, *reflect; /* room each: T's tridiagonal form (dstemr
-                               overwrites it), and the reflectors' scalars   */
+    double *diag, *off, *reflect; /* room each: T's tridiagonal form and
+                               the reflectors' scalars                       */
+    double *diag_work, *off_work; /* room each: its copy for dstemr          */
     double *edge;           /* room x b: Q^T of the last b unit vectors      */
     double *gram_parts;     /* partial Gram matrices of Cholesky QR          */
     double *saved;          /* n x b row-major: the block before its QR      */
@@ -240,6 +241,8 @@ static void release(lanczos *L)
     phks_free(L->tfull);
     phks_free(L->diag);
     phks_free(L->off);
+    phks_free(L->diag_work);
+    phks_free(L->off_work);
     phks_free(L->reflect);
     phks_free(L->edge);
     phks_free(L->gram_parts);
@@ -281,6 +284,8 @@ static phks_status reserve(lanczos *L, size_t columns)
     GROW(tfull, room * room);
     GROW(diag, room);
     GROW(off, room);
+    GROW(diag_work, room);
+    GROW(off_work, room);
     GROW(reflect, room);
     GROW(edge, room * L->b);
     GROW(bottom, room * L->b);
@@ -531,24 +536,13 @@ static phks_status next_block(lanczos *L, size_t m, double *r, double scale)
     return PHKS_OK;
 }
 
-/* Eigenpairs il..iu (1-based, ascending) of T[0:m, 0:m]: the values into
- * theta, the last b rows of the eigenvectors into bottom (b x count, for
- * the residuals), and the eigenvectors of T's tridiagonal form into ritz
- * (leading dimension m; ritz_vectors turns them into T's). The reduction
- * to tridiagonal form costs a fraction of dsyevr's subset path (bisection
- * and inverse iteration), and MRRR (dstemr) gives the pairs: every pair,
- * of which the subset is kept. Asked for a subset, dstemr finds the
- * eigenvalues by bisection: for the 102 pairs nearest the cut that took
- * 18 ms at m = 624 against 23 ms for all 624 pairs (dqds), and for more
- * than a quarter of them 2.5-4 times as long as all (m of 256-736, on
- * meshes of 5k-15k vertices), so a check that looked at the pairs nearest
- * the cut first and at the others only when those passed cost more, not
- * less, once the reduction (about 20 ms) is counted. The reflectors are
- * applied only to the b unit vectors the residuals need, and to the Ritz
- * vectors once they are wanted. */
-static phks_status eig_t(lanczos *L, size_t m, size_t il, size_t iu)
+/* T[0:m, 0:m] to tridiagonal form (diag, off; the reflectors stay in
+ * tfull and reflect), and edge = Q^T times the last b unit vectors, which
+ * is all the residuals need of the reflectors. The reduction (about 20 ms
+ * at m = 624) serves every pairs_t call until T or tfull changes. */
+static phks_status reduce_t(lanczos *L, size_t m)
 {
-    size_t b = L->b, count = iu - il + 1;
+    size_t b = L->b;
     for (size_t j = 0; j < m; j++)
         memcpy(L->tfull + j * m, L->t + j * L->room, (j + 1) * sizeof(double));
     lapack_int info = LAPACKE_dsytrd(LAPACK_COL_MAJOR, 'U', (lapack_int)m,
@@ -564,19 +558,52 @@ static phks_status eig_t(lanczos *L, size_t m, size_t il, size_t iu)
                           L->edge, (lapack_int)m);
     if (info != 0)
         return phks_fail(PHKS_ERROR_SOLVER, "Lanczos: dormtr info %d", (int)info);
+    return PHKS_OK;
+}
+
+/* Eigenpairs il..iu (1-based, ascending) of T from reduce_t's tridiagonal
+ * form: the values into theta, the last b rows of the eigenvectors into
+ * bottom (b x count, for the residuals), and the eigenvectors of the
+ * tridiagonal form into ritz (leading dimension m; ritz_vectors turns them
+ * into T's); with vectors false, the values only. MRRR (dstemr) on a copy
+ * of the tridiagonal form (it overwrites its input). Asked for a subset,
+ * dstemr finds the eigenvalues by bisection, which pays for a few pairs
+ * (25 of psb/48's 624: 4.5 ms against 22 ms for all) but not for more
+ * than a quarter of them (2.5-4 times as long as all, m of 256-736 on
+ * meshes of 5k-15k vertices): then every pair is computed (dqds) and the
+ * subset kept. */
+static phks_status pairs_t(lanczos *L, size_t m, size_t il, size_t iu,
+                           bool vectors)
+{
+    size_t b = L->b, count = iu - il + 1;
+    bool all = vectors && 4 * count > m;
+    memcpy(L->diag_work, L->diag, m * sizeof(double));
+    memcpy(L->off_work, L->off, m * sizeof(double));
     lapack_int found = 0;
     lapack_logical tryrac = 1;
-    info = LAPACKE_dstemr(LAPACK_COL_MAJOR, 'V', 'A', (lapack_int)m, L->diag,
-                          L->off, 0, 0, 0, 0, &found, L->theta, L->ritz,
-                          (lapack_int)m, (lapack_int)m, L->support, &tryrac);
-    if (info != 0 || (size_t)found != m)
+    lapack_int info = LAPACKE_dstemr(
+        LAPACK_COL_MAJOR, vectors ? 'V' : 'N', all ? 'A' : 'I', (lapack_int)m,
+        L->diag_work, L->off_work, 0, 0, (lapack_int)il, (lapack_int)iu, &found,
+        L->theta, L->ritz, (lapack_int)m, (lapack_int)(all ? m : count),
+        L->support, &tryrac);
+    if (info != 0 || (size_t)found != (all ? m : count))
         return phks_fail(PHKS_ERROR_SOLVER, "Lanczos: dstemr info %d", (int)info);
-    memmove(L->theta, L->theta + (il - 1), count * sizeof(double));
-    memmove(L->ritz, L->ritz + (il - 1) * m, count * m * sizeof(double));
-    cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, (int)b, (int)count,
-                (int)m, 1.0, L->edge, (int)m, L->ritz, (int)m, 0.0, L->bottom,
-                (int)b);
+    if (all) {
+        memmove(L->theta, L->theta + (il - 1), count * sizeof(double));
+        memmove(L->ritz, L->ritz + (il - 1) * m, count * m * sizeof(double));
+    }
+    if (vectors)
+        cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, (int)b, (int)count,
+                    (int)m, 1.0, L->edge, (int)m, L->ritz, (int)m, 0.0,
+                    L->bottom, (int)b);
     return PHKS_OK;
+}
+
+/* Both: eigenpairs il..iu of T[0:m, 0:m]. */
+static phks_status eig_t(lanczos *L, size_t m, size_t il, size_t iu)
+{
+    phks_status st = reduce_t(L, m);
+    return st == PHKS_OK ? pairs_t(L, m, il, iu, true) : st;
 }
 
 /* Columns [first, first + count) of ritz, from eig_t's last call, become
@@ -904,6 +931,57 @@ done:
     return st;
 }
 
+/* The log of the largest ratio of a Ritz residual to its threshold, scale
+ * times the Ritz value's gap to floor_mu, over columns [first, first +
+ * count) of theta and bottom. */
+static double worst_excess(const lanczos *L, const double *r, double floor_mu,
+                           size_t first, size_t count, double scale)
+{
+    double excess = -INFINITY;
+    for (size_t e = first; e < first + count; e++) {
+        double gap = L->theta[e] - floor_mu;
+        double res = ritz_residual(L, r, e);
+        double x = gap > 0 ? log(res / (scale * gap)) : INFINITY;
+        excess = isnan(x) ? INFINITY : fmax(excess, x);
+    }
+    return excess;
+}
+
+/* Wanted pairs a convergence check looks at before all the others: the
+ * lowest ones. At every check on 10 PSB meshes of 1.5k-27k vertices the
+ * largest ratio of residual to threshold was at the lowest, second or
+ * third wanted pair (they lie nearest the guard, where p separates least),
+ * so a failing check, most of them, costs the reduction and these pairs
+ * (about 27 ms at m = 624 on psb/48) instead of every pair (about 48). */
+#define FIRST_PAIRS 24
+
+/* Convergence check at basis size m: *excess is the log of the largest
+ * ratio of a residual of the top k Ritz pairs of T to its threshold (scale
+ * times its gap to the (q+1)-th largest Ritz value, q = k + guard); the
+ * pairs pass when it is <= 0, and then theta, ritz and bottom hold the
+ * pairs m - q .. m (theta[0] the (q+1)-th largest), the top k in columns
+ * q - k + 1 .. q. */
+static phks_status check(lanczos *L, const double *r, size_t m, size_t q,
+                         size_t k, double scale, double *excess)
+{
+    phks_status st = reduce_t(L, m);
+    size_t few = FIRST_PAIRS < k ? FIRST_PAIRS : k, lowest = m - k + 1;
+    if (st == PHKS_OK)
+        st = pairs_t(L, m, m - q, m - q, false);
+    double floor_mu = L->theta[0];
+    if (st == PHKS_OK)
+        st = pairs_t(L, m, lowest, lowest + few - 1, true);
+    if (st != PHKS_OK)
+        return st;
+    *excess = worst_excess(L, r, floor_mu, 0, few, scale);
+    if (*excess > 0)
+        return PHKS_OK;
+    st = pairs_t(L, m, m - q, m, true);
+    if (st == PHKS_OK)
+        *excess = worst_excess(L, r, L->theta[0], 1 + q - k, k, scale);
+    return st;
+}
+
 /* Lanczos on p(B) until the k lowest eigenpairs of B are found. Returns
  * PHKS_ERROR_NO_CONVERGENCE (without a message) when the cap is hit, and
  * sets *cut_low when the cut turned out to lie below lambda_k. */
@@ -942,22 +1020,12 @@ static phks_status solve(engine *eng, const filter *f, size_t k,
         if (st != PHKS_OK)
             break;
         if (m >= next_check || m + b > cap) {
-            /* theta[0] is the (q+1)-th largest */
-            st = eig_t(&L, m, m - q, m);
+            double excess = INFINITY;
+            st = check(&L, r, m, q, k, strict * opt->tolerance, &excess);
             if (st == PHKS_OK)
                 st = phks_progress(opt, PHKS_STAGE_EIGEN, eng->fraction);
             if (st != PHKS_OK)
                 break;
-            double floor_mu = L.theta[0];
-            /* log of the largest ratio residual / threshold */
-            double excess = -INFINITY;
-            for (size_t e = 1 + (q - k); e <= q; e++) {
-                double gap = L.theta[e] - floor_mu;
-                double res = ritz_residual(&L, r, e);
-                double x = gap > 0 ? log(res / (strict * opt->tolerance * gap))
-                                   : INFINITY;
-                excess = isnan(x) ? INFINITY : fmax(excess, x);
-            }
             bool ok = excess <= 0;
             if (ok) {
                 double worst = INFINITY;
