@@ -952,7 +952,8 @@ static double worst_excess(const lanczos *L, const double *r, double floor_mu,
  * largest ratio of residual to threshold was at the lowest, second or
  * third wanted pair (they lie nearest the guard, where p separates least),
  * so a failing check, most of them, costs the reduction and these pairs
- * (about 27 ms at m = 624 on psb/48) instead of every pair (about 48). */
+ * (21-33 ms at m = 560-640 on psb/48 and psb/5) instead of every pair
+ * (45-63 ms). */
 #define FIRST_PAIRS 24
 
 /* Convergence check at basis size m: *excess is the log of the largest
