@@ -965,13 +965,14 @@ static double worst_excess(const lanczos *L, const double *r, double floor_mu,
 static phks_status check(lanczos *L, const double *r, size_t m, size_t q,
                          size_t k, double scale, double *excess)
 {
-    phks_status st = reduce_t(L, m);
     size_t few = FIRST_PAIRS < k ? FIRST_PAIRS : k, lowest = m - k + 1;
+    phks_status st = reduce_t(L, m);
     if (st == PHKS_OK)
         st = pairs_t(L, m, m - q, m - q, false);
+    if (st != PHKS_OK)
+        return st;
     double floor_mu = L->theta[0];
-    if (st == PHKS_OK)
-        st = pairs_t(L, m, lowest, lowest + few - 1, true);
+    st = pairs_t(L, m, lowest, lowest + few - 1, true);
     if (st != PHKS_OK)
         return st;
     *excess = worst_excess(L, r, floor_mu, 0, few, scale);
