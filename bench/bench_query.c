@@ -14,7 +14,7 @@
  * by the CPU count, is what the wall time would be on an idle one) and the
  * peak resident memory so far. Threads: all online CPUs.
  */
-#include "internal.h"
+#include "features/features.h"
 
 #include <math.h>
 #include <stdio.h>

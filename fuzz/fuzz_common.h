@@ -11,7 +11,7 @@
 #ifndef PHKS_FUZZ_COMMON_H
 #define PHKS_FUZZ_COMMON_H
 
-#include "internal.h"
+#include "features/features.h"
 
 #include <math.h>
 #include <stdint.h>

@@ -22,7 +22,7 @@
  * from inside each solver; a tolerance that forces the fallbacks; the
  * Ritz vectors' packed product against cblas_dgemm.
  */
-#include "simd.h"
+#include "eigen/lanczos.h"
 #include "soup.h"
 
 #include <cblas.h>

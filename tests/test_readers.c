@@ -5,7 +5,7 @@
  * sanitizer build catches any read past the end of the buffer.
  */
 #include "testutil.h"
-#include "text_scan.h"
+#include "io/text_scan.h"
 
 #include <errno.h>
 #include <math.h>

@@ -8,7 +8,7 @@
  * keep it to seconds; the real-mesh test needs ../shared. */
 #include "testutil.h"
 #include "shapes.h"
-#include "simp.h"
+#include "spectrum/simp.h"
 
 #include <math.h>
 #include <stdio.h>

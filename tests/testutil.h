@@ -2,7 +2,7 @@
 #ifndef PHKS_TESTUTIL_H
 #define PHKS_TESTUTIL_H
 
-#include "internal.h"
+#include "features/features.h"
 
 #include <check.h>
 #include <stdbool.h>

@@ -1,0 +1,523 @@
+/*
+ * db_scan.c - the packed in-memory copy of a shape database and the
+ * top-k scan over it.
+ *
+ * Each entry's vectors are stored transposed (one row per scale, one lane
+ * per feature, padded with +infinity to a multiple of LANES), so the L1
+ * distances from one query feature to LANES entry features are computed
+ * side by side in SIMD lanes, while each lane still adds its |a - b| terms
+ * in scale order, exactly as score.c does. The minima and the final sum
+ * also follow score.c's order (query features first, then the entry's),
+ * so every score is bit for bit phks_score(query, entry).
+ *
+ * Scores are sums of non-negative terms and rounding is monotonic, so a
+ * partial sum never exceeds the final one: an entry is dropped as soon as
+ * its partial sum reaches the worst score a full top-k list holds (an
+ * equal score loses too, as later entries have higher ids).
+ */
+#include "db/db_cache.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define LANES 8
+/* Below this many entries one thread does the scan: starting threads would
+ * cost more than it saves. */
+#define PARALLEL_MIN 4096
+
+size_t phks_db_padded(size_t features)
+{
+    return (features + LANES - 1) / LANES * LANES;
+}
+
+void phks_db_cache_init(phks_db_cache *cache)
+{
+    memset(cache, 0, sizeof *cache);
+}
+
+void phks_db_cache_release(phks_db_cache *cache)
+{
+    phks_free(cache->ids);
+    phks_free(cache->features);
+    phks_free(cache->vector_at);
+    phks_free(cache->text_at);
+    phks_free(cache->vectors);
+    phks_free(cache->text);
+    phks_db_cache_init(cache);
+}
+
+/* Bytes of s kept in a hit: at most PHKS_DB_TEXT_MAX, never splitting a
+ * UTF-8 sequence. */
+static size_t text_cut(const char *s)
+{
+    size_t n = strnlen(s, PHKS_DB_TEXT_MAX + 1);
+    if (n <= PHKS_DB_TEXT_MAX)
+        return n;
+    n = PHKS_DB_TEXT_MAX;
+    while (n > 0 && ((unsigned char)s[n] & 0xC0) == 0x80)
+        n--;
+    return n;
+}
+
+/* Makes room for `more` items in *array of *capacity items, growing it
+ * geometrically. On failure the array is unchanged. */
+static bool grow(void **array, size_t *capacity, size_t used, size_t more,
+                 size_t item)
+{
+    if (more <= *capacity - used)
+        return true;
+    if (more > SIZE_MAX / item - used)
+        return false;
+    size_t want = *capacity < 64 ? 64 : *capacity;
+    while (want - used < more)
+        want = want > SIZE_MAX / 2 / item ? used + more : want * 2;
+    void *p = phks_realloc_array(*array, want, item);
+    if (!p)
+        return false;
+    *array = p;
+    *capacity = want;
+    return true;
+}
+
+static bool grow_slots(phks_db_cache *c)
+{
+    if (c->count < c->capacity)
+        return true;
+    size_t want = c->capacity ? 2 * c->capacity : 64;
+    /* An array that grew before another failed is only larger: the
+     * capacity moves on only when all four have grown. */
+    void *p;
+    if (!(p = phks_realloc_array(c->ids, want, sizeof *c->ids)))
+        return false;
+    c->ids = p;
+    if (!(p = phks_realloc_array(c->features, want, sizeof *c->features)))
+        return false;
+    c->features = p;
+    if (!(p = phks_realloc_array(c->vector_at, want, sizeof *c->vector_at)))
+        return false;
+    c->vector_at = p;
+    if (!(p = phks_realloc_array(c->text_at, want, sizeof *c->text_at)))
+        return false;
+    c->text_at = p;
+    c->capacity = want;
+    return true;
+}
+
+phks_status phks_db_cache_append(phks_db_cache *c, int64_t id,
+                                 const char *name, const char *label,
+                                 const phks_signature *sig)
+{
+    size_t length = c->count ? c->length : sig->length;
+    if (id < 1 || (c->count && id <= c->ids[c->count - 1]) ||
+        sig->count == 0 || sig->count > UINT32_MAX || sig->length != length)
+        return PHKS_ERROR_INVALID_ARGUMENT;
+    size_t lanes = phks_db_padded(sig->count);
+    if (length && lanes > SIZE_MAX / length)
+        return PHKS_ERROR_OUT_OF_MEMORY;
+    size_t block = lanes * length;
+    if (!label)
+        label = "";
+    size_t name_len = text_cut(name), label_len = text_cut(label);
+    if (!grow_slots(c) ||
+        !grow((void **)&c->vectors, &c->vectors_capacity, c->vectors_used,
+              block, sizeof *c->vectors) ||
+        !grow((void **)&c->text, &c->text_capacity, c->text_used,
+              name_len + label_len + 2, 1))
+        return PHKS_ERROR_OUT_OF_MEMORY;
+
+    size_t e = c->count++;
+    c->length = length;
+    c->ids[e] = id;
+    c->features[e] = (uint32_t)sig->count;
+    if (sig->count > c->max_features)
+        c->max_features = (uint32_t)sig->count;
+    c->vector_at[e] = c->vectors_used;
+    double *v = c->vectors + c->vectors_used;
+    for (size_t s = 0; s < length; s++)
+        for (size_t j = 0; j < lanes; j++)
+            v[s * lanes + j] =
+                j < sig->count ? sig->vectors[j * length + s] : INFINITY;
+    c->vectors_used += block;
+    c->text_at[e] = c->text_used;
+    char *t = c->text + c->text_used;
+    memcpy(t, name, name_len);
+    t[name_len] = '\0';
+    memcpy(t + name_len + 1, label, label_len);
+    t[name_len + 1 + label_len] = '\0';
+    c->text_used += name_len + label_len + 2;
+    return PHKS_OK;
+}
+
+/* Moves the live entries down over the removed ones, in order. */
+static void compact(phks_db_cache *c)
+{
+    size_t out = 0, vec = 0, text = 0;
+    for (size_t e = 0; e < c->count; e++) {
+        if (c->features[e] == 0)
+            continue;
+        size_t block = phks_db_padded(c->features[e]) * c->length;
+        const char *t = c->text + c->text_at[e];
+        size_t tlen = strlen(t) + 1;
+        tlen += strlen(t + tlen) + 1;
+        memmove(c->vectors + vec, c->vectors + c->vector_at[e],
+                block * sizeof *c->vectors);
+        memmove(c->text + text, t, tlen);
+        c->ids[out] = c->ids[e];
+        c->features[out] = c->features[e];
+        c->vector_at[out] = vec;
+        c->text_at[out] = text;
+        vec += block;
+        text += tlen;
+        out++;
+    }
+    c->count = out;
+    c->dead = 0;
+    c->vectors_used = vec;
+    c->text_used = text;
+}
+
+void phks_db_cache_remove(phks_db_cache *c, int64_t id)
+{
+    size_t lo = 0, hi = c->count;
+    while (lo < hi) {
+        size_t mid = lo + (hi - lo) / 2;
+        if (c->ids[mid] < id)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    if (lo == c->count || c->ids[lo] != id || c->features[lo] == 0)
+        return;
+    c->features[lo] = 0;
+    c->dead++;
+    if (c->dead * 2 > c->count)
+        compact(c);
+}
+
+/* ---- the scan */
+
+typedef struct candidate {
+    double score;
+    int64_t id;
+    size_t slot;
+} candidate;
+
+static bool worse(const candidate *a, const candidate *b)
+{
+    return a->score > b->score || (a->score == b->score && a->id > b->id);
+}
+
+typedef struct scan_part {
+    candidate *heap; /* max-heap: the worst kept candidate on top */
+    size_t size;
+    double *colmin;  /* one per lane of the widest entry */
+} scan_part;
+
+typedef struct scan_job {
+    const phks_db_cache *cache;
+    const phks_signature *query;
+    const double *rows; /* the query's vectors, padded to whole passes */
+    size_t keep;     /* heap capacity: min(k, live entries) */
+    unsigned parts;
+    scan_part *part;
+} scan_job;
+
+static void heap_push(scan_part *p, size_t keep, candidate c)
+{
+    candidate *h = p->heap;
+    size_t i;
+    if (p->size < keep) {
+        i = p->size++;
+        while (i > 0 && worse(&c, &h[(i - 1) / 2])) {
+            h[i] = h[(i - 1) / 2];
+            i = (i - 1) / 2;
+        }
+        h[i] = c;
+        return;
+    }
+    if (!worse(&h[0], &c))
+        return;
+    i = 0;
+    for (;;) {
+        size_t l = 2 * i + 1, r = l + 1, big = i;
+        const candidate *top = &c;
+        if (l < keep && worse(&h[l], top)) {
+            big = l;
+            top = &h[l];
+        }
+        if (r < keep && worse(&h[r], top))
+            big = r;
+        if (big == i)
+            break;
+        h[i] = h[big];
+        i = big;
+    }
+    h[i] = c;
+}
+
+/* phks_score(query, entry) for one entry block e of `lanes` lanes, ne of
+ * them real. The query's nq vectors of L values are row-major in q, padded
+ * with rows of +infinity to a multiple of ROWS (a padded row meets a
+ * padded lane in inf - inf = NaN, which no minimum ever picks). With
+ * prune, gives up as soon as the partial sum reaches limit (and returns
+ * it).
+ *
+ * Every lane adds its |q - e| terms in scale order, as score.c's l1
+ * does; minima are taken with score.c's comparison (x < m ? x : m from
+ * +infinity), whose result does not depend on the order of the values;
+ * the total adds the query's row minima in order, then the entry's. GCC
+ * and Clang get explicit vectors (the auto-vectoriser would rather run
+ * along the scales, which reorders each sum); four query rows per pass
+ * share each load of the entry and give eight independent chains of
+ * additions. Other compilers get plain loops. */
+#define ROWS 4
+/* PHKS_SCAN_PORTABLE forces the plain loops, to test them with GCC. */
+#if (defined(__GNUC__) || defined(__clang__)) && !defined(PHKS_SCAN_PORTABLE)
+/* Inlined into each clone of scan_slots, so each gets its instructions. */
+#define INLINE inline __attribute__((always_inline))
+#define VW 4 /* doubles per vector: one AVX register, two SSE2 ones */
+typedef double vdouble __attribute__((vector_size(VW * sizeof(double))));
+typedef int64_t vbits __attribute__((vector_size(VW * sizeof(double))));
+
+/* Macros rather than functions: a vector passed by value draws ABI notes
+ * from the compilers when AVX is off. */
+#define SPLAT(x) ((vdouble){(x), (x), (x), (x)})
+#define LOAD(v, p) memcpy(&(v), (p), sizeof(vdouble))
+#define STORE(p, v) memcpy((p), &(v), sizeof(vdouble))
+#define ABS_DIFF(x, r) \
+    ((vdouble)((vbits)((x) - (r)) & \
+               (vbits){INT64_MAX, INT64_MAX, INT64_MAX, INT64_MAX}))
+/* Lane-wise m = x < m ? x : m. */
+#define MIN_INTO(m, x)                                                  \
+    do {                                                                \
+        vbits less_ = (x) < (m);                                        \
+        (m) = (vdouble)(((vbits)(x) & less_) | ((vbits)(m) & ~less_)); \
+    } while (0)
+
+static INLINE double hmin(const vdouble *v)
+{
+    double m = INFINITY;
+    for (int t = 0; t < VW; t++)
+        m = (*v)[t] < m ? (*v)[t] : m;
+    return m;
+}
+
+/* Row minima of the ROWS query rows at q against the entry block, and the
+ * distances folded into colmin. */
+static INLINE void rows_against(const double *q, size_t L, const double *e,
+                                size_t lanes, double *colmin,
+                                double min[ROWS])
+{
+    vdouble m0 = SPLAT(INFINITY), m1 = m0, m2 = m0, m3 = m0;
+    const double *q0 = q, *q1 = q + L, *q2 = q + 2 * L, *q3 = q + 3 * L;
+    for (size_t jb = 0; jb < lanes; jb += LANES) {
+        vdouble a00 = {0}, a01 = {0}, a10 = {0}, a11 = {0};
+        vdouble a20 = {0}, a21 = {0}, a30 = {0}, a31 = {0};
+        const double *r = e + jb;
+        for (size_t s = 0; s < L; s++, r += lanes) {
+            vdouble r0, r1, x;
+            LOAD(r0, r);
+            LOAD(r1, r + VW);
+            x = SPLAT(q0[s]);
+            a00 += ABS_DIFF(x, r0);
+            a01 += ABS_DIFF(x, r1);
+            x = SPLAT(q1[s]);
+            a10 += ABS_DIFF(x, r0);
+            a11 += ABS_DIFF(x, r1);
+            x = SPLAT(q2[s]);
+            a20 += ABS_DIFF(x, r0);
+            a21 += ABS_DIFF(x, r1);
+            x = SPLAT(q3[s]);
+            a30 += ABS_DIFF(x, r0);
+            a31 += ABS_DIFF(x, r1);
+        }
+        vdouble c0, c1;
+        LOAD(c0, colmin + jb);
+        LOAD(c1, colmin + jb + VW);
+        MIN_INTO(c0, a00);
+        MIN_INTO(c0, a10);
+        MIN_INTO(c0, a20);
+        MIN_INTO(c0, a30);
+        MIN_INTO(c1, a01);
+        MIN_INTO(c1, a11);
+        MIN_INTO(c1, a21);
+        MIN_INTO(c1, a31);
+        STORE(colmin + jb, c0);
+        STORE(colmin + jb + VW, c1);
+        MIN_INTO(m0, a00);
+        MIN_INTO(m0, a01);
+        MIN_INTO(m1, a10);
+        MIN_INTO(m1, a11);
+        MIN_INTO(m2, a20);
+        MIN_INTO(m2, a21);
+        MIN_INTO(m3, a30);
+        MIN_INTO(m3, a31);
+    }
+    min[0] = hmin(&m0);
+    min[1] = hmin(&m1);
+    min[2] = hmin(&m2);
+    min[3] = hmin(&m3);
+}
+#else
+#define INLINE inline
+
+static INLINE void rows_against(const double *q, size_t L, const double *e,
+                                size_t lanes, double *colmin,
+                                double min[ROWS])
+{
+    for (int u = 0; u < ROWS; u++)
+        min[u] = INFINITY;
+    for (size_t j = 0; j < lanes; j++)
+        for (int u = 0; u < ROWS; u++) {
+            double d = 0;
+            for (size_t s = 0; s < L; s++)
+                d += fabs(q[u * L + s] - e[s * lanes + j]);
+            min[u] = d < min[u] ? d : min[u];
+            colmin[j] = d < colmin[j] ? d : colmin[j];
+        }
+}
+#endif
+
+static INLINE double entry_score(const double *q, size_t nq, size_t L,
+                                 const double *e, size_t ne, size_t lanes,
+                                 double *colmin, bool prune, double limit)
+{
+    for (size_t j = 0; j < lanes; j++)
+        colmin[j] = INFINITY;
+    double total = 0;
+    for (size_t i = 0; i < nq; i += ROWS, q += ROWS * L) {
+        double min[ROWS];
+        rows_against(q, L, e, lanes, colmin, min);
+        for (size_t u = 0; u < ROWS && i + u < nq; u++)
+            total += min[u];
+        if (prune && total >= limit)
+            return total;
+    }
+    for (size_t j = 0; j < ne; j++)
+        total += colmin[j];
+    return total;
+}
+
+/* The same code compiled twice on x86-64 with GCC, and picked at load time
+ * by the CPU: AVX2 does four lanes per instruction instead of two. Both
+ * give identical results (no multiplications, so no fused operations).
+ * Not under ThreadSanitizer: the dynamic loader runs the picker (an ifunc
+ * resolver) before the sanitizer's runtime is ready, and its instrumented
+ * entry crashes every program linked with the library at start-up. */
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && \
+    defined(__linux__) && !defined(__SANITIZE_THREAD__)
+#define SCAN_CLONES __attribute__((target_clones("avx2", "default")))
+#else
+#define SCAN_CLONES
+#endif
+
+SCAN_CLONES
+static void scan_slots(const scan_job *job, scan_part *p, size_t begin,
+                       size_t end)
+{
+    const phks_db_cache *c = job->cache;
+    const double *q = job->rows;
+    size_t nq = job->query->count, L = c->length, keep = job->keep;
+    for (size_t e = begin; e < end; e++) {
+        size_t ne = c->features[e];
+        if (ne == 0)
+            continue;
+        bool full = p->size == keep;
+        double limit = full ? p->heap[0].score : INFINITY;
+        double score = entry_score(q, nq, L, c->vectors + c->vector_at[e], ne,
+                                   phks_db_padded(ne), p->colmin, full, limit);
+        if (!full || score < limit)
+            heap_push(p, keep, (candidate){score, c->ids[e], e});
+    }
+}
+
+static void scan_range(void *ctx, size_t begin, size_t end)
+{
+    const scan_job *job = ctx;
+    size_t n = job->cache->count;
+    for (size_t t = begin; t < end; t++)
+        scan_slots(job, &job->part[t], n * t / job->parts,
+                   n * (t + 1) / job->parts);
+}
+
+static int by_score_then_id(const void *a, const void *b)
+{
+    const candidate *x = a, *y = b;
+    return worse(x, y) ? 1 : worse(y, x) ? -1 : 0;
+}
+
+phks_status phks_db_cache_query(const phks_db_cache *c,
+                                const phks_signature *query, size_t k,
+                                phks_hit *hits, size_t *count)
+{
+    *count = 0;
+    size_t live = c->count - c->dead;
+    if (live == 0)
+        return PHKS_OK;
+    size_t keep = k < live ? k : live;
+    unsigned parts = live < PARALLEL_MIN ? 1 : phks_thread_count(NULL);
+    scan_job job = {c, query, NULL, keep, parts, NULL};
+    candidate *all = NULL;
+    phks_status st = PHKS_OK;
+    size_t L = c->length, padded = (query->count + ROWS - 1) / ROWS * ROWS;
+    double *rows = phks_malloc_array(padded, L * sizeof *rows);
+    job.rows = rows;
+    job.part = phks_calloc(parts, sizeof *job.part);
+    if (!rows || !job.part) {
+        st = phks_fail_oom("database query");
+        goto done;
+    }
+    for (size_t i = 0; i < padded * L; i++)
+        rows[i] = i < query->count * L ? query->vectors[i] : INFINITY;
+    for (unsigned t = 0; t < parts; t++) {
+        job.part[t].heap = phks_malloc_array(keep, sizeof(candidate));
+        job.part[t].colmin =
+            phks_malloc_array(phks_db_padded(c->max_features), sizeof(double));
+        if (!job.part[t].heap || !job.part[t].colmin) {
+            st = phks_fail_oom("database query");
+            goto done;
+        }
+    }
+    phks_parallel_for(parts, parts, scan_range, &job);
+
+    /* The best `keep` of all parts' lists. */
+    candidate *best = job.part[0].heap;
+    size_t total = job.part[0].size;
+    if (parts > 1) {
+        all = phks_malloc_array(parts, keep * sizeof *all);
+        if (!all) {
+            st = phks_fail_oom("database query");
+            goto done;
+        }
+        total = 0;
+        for (unsigned t = 0; t < parts; t++) {
+            memcpy(all + total, job.part[t].heap,
+                   job.part[t].size * sizeof *all);
+            total += job.part[t].size;
+        }
+        best = all;
+    }
+    qsort(best, total, sizeof *best, by_score_then_id);
+    if (total > keep)
+        total = keep;
+    for (size_t i = 0; i < total; i++) {
+        const char *t = c->text + c->text_at[best[i].slot];
+        size_t name_len = strlen(t);
+        hits[i].id = best[i].id;
+        hits[i].score = best[i].score;
+        memcpy(hits[i].name, t, name_len + 1);
+        memcpy(hits[i].label, t + name_len + 1, strlen(t + name_len + 1) + 1);
+    }
+    *count = total;
+done:
+    if (job.part)
+        for (unsigned t = 0; t < parts; t++) {
+            phks_free(job.part[t].heap);
+            phks_free(job.part[t].colmin);
+        }
+    phks_free(job.part);
+    phks_free(all);
+    phks_free(rows);
+    return st;
+}

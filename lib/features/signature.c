@@ -1,0 +1,351 @@
+/*
+ * signature.c - the pipeline's last steps: the persistent maxima of HKS at
+ * the feature scale become the feature points, and each gets the vector of
+ * its HKS values at the time scales.
+ */
+#include "features/features.h"
+
+#include <float.h>
+#include <math.h>
+#include <string.h>
+
+void phks_signature_free(phks_signature *sig)
+{
+    if (!sig)
+        return;
+    phks_free(sig->vertex);
+    phks_free(sig->position);
+    phks_free(sig->persistence);
+    phks_free(sig->vectors);
+    phks_free(sig);
+}
+
+phks_status phks_signature_alloc(size_t count, size_t length,
+                                 phks_signature **out)
+{
+    phks_signature *sig = phks_calloc(1, sizeof *sig);
+    if (!sig)
+        return phks_fail_oom("signature");
+    sig->count = count;
+    sig->length = length;
+    sig->vertex = phks_malloc_array(count, sizeof *sig->vertex);
+    sig->position = phks_malloc_array(count, 3 * sizeof *sig->position);
+    sig->persistence = phks_malloc_array(count, sizeof *sig->persistence);
+    sig->vectors = phks_malloc_array(count, length * sizeof *sig->vectors);
+    if (!sig->vertex || !sig->position || !sig->persistence || !sig->vectors) {
+        phks_signature_free(sig);
+        return phks_fail_oom("signature");
+    }
+    *out = sig;
+    return PHKS_OK;
+}
+
+bool phks_options_comparable(const phks_options *a, const phks_options *b)
+{
+    if (a->tau != b->tau || a->cutoff != b->cutoff ||
+        a->eigen_count != b->eigen_count || a->feature_count != b->feature_count ||
+        a->scale_count != b->scale_count || a->feature_scale != b->feature_scale ||
+        a->operator_kind != b->operator_kind || a->box != b->box ||
+        a->boundary_margin != b->boundary_margin ||
+        a->hks_scaling != b->hks_scaling)
+        return false;
+    for (uint32_t i = 0; i < a->scale_count; i++)
+        if (a->scales[i] != b->scales[i])
+            return false;
+    return true;
+}
+
+/* The spectrum must come from the same operator as the options describe;
+ * anything else would silently mix incomparable numbers. */
+static phks_status check_spectrum(const phks_mesh *mesh,
+                                  const phks_spectrum *spec,
+                                  const phks_options *opt)
+{
+    if (spec->n != mesh->vertex_count)
+        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+                         "phks_signature_from_spectrum: the spectrum has %zu "
+                         "vertices, the mesh %zu",
+                         spec->n, mesh->vertex_count);
+    const phks_options *s = &spec->options;
+    if (s->tau != opt->tau || s->cutoff != opt->cutoff ||
+        s->eigen_count != opt->eigen_count ||
+        s->operator_kind != opt->operator_kind || s->box != opt->box)
+        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+                         "phks_signature_from_spectrum: the options differ "
+                         "from those the spectrum was computed with");
+    return PHKS_OK;
+}
+
+/* The factor that turns HKS_t into the mean-scaled HKS: total mass over
+ * the heat trace, the inverse of the mass-weighted mean of HKS_t (the
+ * eigenvectors are mass-orthonormal). 1 for the other scalings. */
+static double hks_factor(const phks_spectrum *spec, const phks_options *opt,
+                         double t)
+{
+    if (opt->hks_scaling != PHKS_HKS_SCALING_MEAN)
+        return 1;
+    double mass = 0, trace = 0;
+    for (size_t v = 0; v < spec->n; v++)
+        mass += spec->mass[v];
+    for (size_t i = 0; i < spec->count; i++)
+        trace += exp(-t * spec->values[i]);
+    return mass / trace;
+}
+
+/* The local areas of features [begin, end), for phks_run_batched. */
+typedef struct {
+    const phks_mesh *mesh;
+    const phks_signature *sig;
+    const double *vertex_area, *radius2;
+    double scale;
+    double *area; /* sig->count x sig->length */
+} areas_ctx;
+
+static void areas_range(void *ctx, size_t begin, size_t end)
+{
+    const areas_ctx *c = ctx;
+    for (size_t i = begin; i < end; i++)
+        phks_local_areas(c->mesh, c->scale, c->vertex_area, c->sig->vertex[i],
+                         c->radius2, c->sig->length, c->area + i * c->sig->length);
+}
+
+/* A_t of every feature point for PHKS_HKS_SCALING_LOCAL_AREA into area
+ * (sig->count x scale_count), positions scaled by the unit box's `scale`,
+ * the features spread over opt->threads and progress reported
+ * (PHKS_STAGE_PERSISTENCE, 0.95 to 1) between batches: on the 1.6M-vertex
+ * armadillo this takes about half a second. */
+static phks_status local_areas(const phks_mesh *mesh, const phks_options *opt,
+                               double scale, const phks_signature *sig,
+                               const double *radius2, double *area)
+{
+    double *vertex_area = phks_malloc_array(mesh->vertex_count, sizeof *vertex_area);
+    if (!vertex_area)
+        return phks_fail_oom("feature vectors");
+    phks_vertex_areas(mesh, scale, vertex_area);
+    areas_ctx c = {mesh, sig, vertex_area, radius2, scale, area};
+    unsigned threads = phks_thread_count(opt);
+    phks_status st = phks_run_batched(sig->count, threads, areas_range, &c, opt,
+                                      PHKS_STAGE_PERSISTENCE, 0.95, 0.05,
+                                      (sig->count + threads - 1) / threads);
+    phks_free(vertex_area);
+    return st;
+}
+
+/* The feature vectors of sig's points: HKS at each time scale, scaled as
+ * opt->hks_scaling says. With LOCAL_AREA each value becomes
+ * log(HKS_t A_t / (4 pi t)), A_t the area within sqrt(4 t) of the point
+ * (local_area.c), t in the unit box: 0 on a plane; the logarithm weighs
+ * every scale alike, where the plain values fall from about 80 at 5 tau
+ * to about 1 at 1000 tau and the first scales would decide the L1
+ * distance alone. */
+static phks_status feature_vectors(const phks_mesh *mesh,
+                                   const phks_spectrum *spec,
+                                   const phks_options *opt, double scale,
+                                   phks_signature *sig)
+{
+    size_t S = opt->scale_count;
+    double factors[PHKS_MAX_SCALES], radius2[PHKS_MAX_SCALES];
+    for (size_t s = 0; s < S; s++) {
+        factors[s] = hks_factor(spec, opt, opt->scales[s] * opt->tau);
+        radius2[s] = 4 * opt->scales[s] * opt->tau;
+    }
+    bool local = opt->hks_scaling == PHKS_HKS_SCALING_LOCAL_AREA;
+    double *area = NULL;
+    if (local && sig->count) {
+        area = phks_malloc_array(sig->count, S * sizeof *area);
+        if (!area)
+            return phks_fail_oom("feature vectors");
+        phks_status st = local_areas(mesh, opt, scale, sig, radius2, area);
+        if (st != PHKS_OK) {
+            phks_free(area);
+            return st;
+        }
+    }
+    for (size_t i = 0; i < sig->count; i++) {
+        uint32_t v = sig->vertex[i];
+        double *out = sig->vectors + i * S;
+        for (size_t s = 0; s < S; s++) {
+            double h = phks_hks_at(spec, opt->scales[s] * opt->tau, v) * factors[s];
+            /* HKS is positive and the point's own area is in A_t; the
+             * floor only keeps a rounding-level zero finite. */
+            out[s] = local ? log(fmax(h * area[i * S + s] / (PHKS_PI * radius2[s]),
+                                      DBL_MIN))
+                           : h;
+        }
+    }
+    phks_free(area);
+    return PHKS_OK;
+}
+
+/* Whether taper_at_boundary changes anything. */
+static bool tapers(const phks_mesh *mesh, const phks_options *opt)
+{
+    return opt->boundary_margin != 0 && mesh->boundary_edge_count != 0;
+}
+
+/* Progress in PHKS_STAGE_PERSISTENCE: the unit box's scale (which the
+ * taper and the local areas need) from 0 to SCALE_SPAN, the taper's
+ * distances up to TAPER_SPAN. */
+#define SCALE_SPAN 0.05
+#define TAPER_SPAN 0.3
+
+/* Tapers h to zero at the mesh boundary: h(v) (1 - exp(-(d(v) / m)^2)),
+ * d the distance to the boundary in the unit box (positions times
+ * `scale`), m the margin. A cut piece's HKS rises towards the cut (heat
+ * that would have crossed it stays), so without this every maximum of a
+ * partial scan sits on its silhouette; with it, the boundary is a minimum
+ * and the maxima are those the piece shares with its whole. */
+static phks_status taper_at_boundary(const phks_mesh *mesh,
+                                     const phks_options *opt, double scale,
+                                     double *h)
+{
+    if (!tapers(mesh, opt))
+        return PHKS_OK;
+    double m = opt->boundary_margin * sqrt(4 * opt->feature_scale * opt->tau);
+    double *d = phks_malloc_array(mesh->vertex_count, sizeof *d);
+    if (!d)
+        return phks_fail_oom("boundary taper");
+    /* Beyond 6 m the taper differs from 1 by less than e^-36. */
+    phks_status st = phks_boundary_distance(mesh, scale, 6 * m, opt,
+                                            PHKS_STAGE_PERSISTENCE, SCALE_SPAN,
+                                            TAPER_SPAN - SCALE_SPAN, d);
+    for (size_t v = 0; st == PHKS_OK && v < mesh->vertex_count; v++)
+        h[v] *= -expm1(-(d[v] / m) * (d[v] / m));
+    phks_free(d);
+    return st;
+}
+
+phks_status phks_signature_from_spectrum(const phks_mesh *mesh,
+                                         const phks_spectrum *spec,
+                                         const phks_options *options,
+                                         phks_signature **out)
+{
+    if (out)
+        *out = NULL;
+    if (!mesh || !spec || !out)
+        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+                         "phks_signature_from_spectrum: NULL argument");
+    phks_options opt;
+    phks_status st = phks_options_resolve(options, &opt);
+    if (st == PHKS_OK)
+        st = check_spectrum(mesh, spec, &opt);
+    if (st == PHKS_OK)
+        st = phks_progress(&opt, PHKS_STAGE_HKS, 0);
+    if (st != PHKS_OK)
+        return st;
+
+    size_t n = mesh->vertex_count, wanted = opt.feature_count;
+    if (wanted > mesh->triangle_count)
+        wanted = mesh->triangle_count;
+    double *h = phks_malloc_array(n, sizeof *h);
+    phks_maximum *maxima = NULL;
+    phks_signature *sig = NULL;
+    size_t found = 0;
+    if (!h) {
+        st = phks_fail_oom("signature");
+        goto done;
+    }
+    double t_feature = opt.feature_scale * opt.tau;
+    st = phks_hks_all(spec, t_feature, &opt, h);
+    double factor = hks_factor(spec, &opt, t_feature);
+    for (size_t v = 0; v < n; v++)
+        h[v] *= factor;
+    if (st == PHKS_OK)
+        st = phks_progress(&opt, PHKS_STAGE_PERSISTENCE, 0);
+    bool scaled = tapers(mesh, &opt) ||
+                  opt.hks_scaling == PHKS_HKS_SCALING_LOCAL_AREA;
+    double scale = 1;
+    if (st == PHKS_OK && scaled)
+        st = phks_unit_box_scale_progress(mesh, (phks_box)opt.box, &opt,
+                                          PHKS_STAGE_PERSISTENCE, 0,
+                                          SCALE_SPAN, &scale);
+    if (st == PHKS_OK)
+        st = taper_at_boundary(mesh, &opt, scale, h);
+    maxima = st == PHKS_OK ? phks_malloc_array(wanted, sizeof *maxima) : NULL;
+    if (st == PHKS_OK && !maxima)
+        st = phks_fail_oom("feature points");
+    /* The persistence up to 0.95, the feature vectors after. */
+    double from = tapers(mesh, &opt) ? TAPER_SPAN : scaled ? SCALE_SPAN : 0;
+    if (st == PHKS_OK)
+        st = phks_persistence_run(mesh, h, wanted, 0, maxima, &found, NULL,
+                                  &opt, from, 0.95 - from);
+    if (st == PHKS_OK)
+        st = phks_signature_alloc(found, opt.scale_count, &sig);
+    if (st != PHKS_OK)
+        goto done;
+    sig->options = opt;
+    sig->options.progress = NULL;
+    sig->options.progress_user = NULL;
+    for (size_t i = 0; i < found; i++) {
+        uint32_t v = maxima[i].vertex;
+        sig->vertex[i] = v;
+        memcpy(sig->position + 3 * i, mesh->xyz + 3 * (size_t)v, 3 * sizeof(double));
+        sig->persistence[i] = maxima[i].persistence;
+    }
+    st = feature_vectors(mesh, spec, &opt, scale, sig);
+    if (st == PHKS_OK)
+        st = phks_progress(&opt, PHKS_STAGE_PERSISTENCE, 1);
+done:
+    phks_free(h);
+    phks_free(maxima);
+    if (st != PHKS_OK) {
+        phks_signature_free(sig);
+        return st;
+    }
+    *out = sig;
+    return PHKS_OK;
+}
+
+phks_status phks_signature_compute(const phks_mesh *mesh,
+                                   const phks_options *options,
+                                   phks_signature **out)
+{
+    if (out)
+        *out = NULL;
+    if (!mesh || !out)
+        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+                         "phks_signature_compute: NULL argument");
+    phks_spectrum *spec = NULL;
+    phks_status st = phks_spectrum_compute(mesh, options, &spec);
+    if (st == PHKS_OK)
+        st = phks_signature_from_spectrum(mesh, spec, options, out);
+    phks_spectrum_free(spec);
+    return st;
+}
+
+size_t phks_signature_feature_count(const phks_signature *s) { return s ? s->count : 0; }
+size_t phks_signature_vector_length(const phks_signature *s) { return s ? s->length : 0; }
+
+uint32_t phks_signature_feature_vertex(const phks_signature *s, size_t i)
+{
+    return s && i < s->count ? s->vertex[i] : UINT32_MAX;
+}
+
+phks_status phks_signature_feature_position(const phks_signature *s, size_t i,
+                                            double xyz[3])
+{
+    if (!s || !xyz || i >= s->count)
+        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+                         "phks_signature_feature_position: no feature %zu", i);
+    memcpy(xyz, s->position + 3 * i, 3 * sizeof(double));
+    return PHKS_OK;
+}
+
+double phks_signature_feature_persistence(const phks_signature *s, size_t i)
+{
+    return s && i < s->count ? s->persistence[i] : NAN;
+}
+
+const double *phks_signature_feature_vector(const phks_signature *s, size_t i)
+{
+    return s && i < s->count ? s->vectors + i * s->length : NULL;
+}
+
+phks_status phks_signature_options(const phks_signature *s, phks_options *options)
+{
+    if (!s || !options)
+        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+                         "phks_signature_options: NULL argument");
+    *options = s->options;
+    return PHKS_OK;
+}

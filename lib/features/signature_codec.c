@@ -1,0 +1,250 @@
+/*
+ * signature_codec.c - signatures as portable byte blobs (docs/formats.md).
+ *
+ * Layout, all integers and doubles little-endian (doubles as IEEE-754
+ * bit patterns), whatever the host:
+ *   magic "PHKS"  u16 format (1)  u16 flags (0)
+ *   f64 tau  f64 cutoff  u32 eigen_count  u32 feature_count
+ *   f64 feature_scale  u32 operator  u32 box  u32 scale_count
+ *   (format 2 on:) f64 boundary_margin  u32 hks_scaling
+ *   f64 scales[scale_count]
+ *   u32 count, then per feature:
+ *     u32 vertex  f64 x y z  f64 persistence  f64 vector[scale_count]
+ *   u32 CRC-32 of every byte before it
+ * A reader refuses a format number above its own rather than guess, and
+ * reads every older one: format 1 blobs predate the two format-2 fields and
+ * were made with them zero.
+ */
+#include "features/features.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#define FORMAT 2
+#define HEADER_SIZE_1 (4 + 2 + 2 + 8 + 8 + 4 + 4 + 8 + 4 + 4 + 4)
+#define FORMAT_2_FIELDS (8 + 4)
+#define FEATURE_FIXED (4 + 3 * 8 + 8)
+
+static size_t header_size(unsigned format)
+{
+    return HEADER_SIZE_1 + (format >= 2 ? FORMAT_2_FIELDS : 0);
+}
+
+static size_t blob_size(unsigned format, size_t scales, size_t count)
+{
+    return header_size(format) + 8 * scales + 4 +
+           count * (FEATURE_FIXED + 8 * scales) + 4;
+}
+
+static unsigned char *put_u16(unsigned char *p, uint16_t x)
+{
+    p[0] = (unsigned char)x;
+    p[1] = (unsigned char)(x >> 8);
+    return p + 2;
+}
+
+static unsigned char *put_u32(unsigned char *p, uint32_t x)
+{
+    for (int i = 0; i < 4; i++)
+        p[i] = (unsigned char)(x >> (8 * i));
+    return p + 4;
+}
+
+static unsigned char *put_f64(unsigned char *p, double x)
+{
+    uint64_t u;
+    memcpy(&u, &x, sizeof u);
+    for (int i = 0; i < 8; i++)
+        p[i] = (unsigned char)(u >> (8 * i));
+    return p + 8;
+}
+
+static uint16_t get_u16(const unsigned char **p)
+{
+    uint16_t x = (uint16_t)((*p)[0] | (*p)[1] << 8);
+    *p += 2;
+    return x;
+}
+
+static uint32_t get_u32(const unsigned char **p)
+{
+    uint32_t x = 0;
+    for (int i = 0; i < 4; i++)
+        x |= (uint32_t)(*p)[i] << (8 * i);
+    *p += 4;
+    return x;
+}
+
+static double get_f64(const unsigned char **p)
+{
+    uint64_t u = 0;
+    for (int i = 0; i < 8; i++)
+        u |= (uint64_t)(*p)[i] << (8 * i);
+    *p += 8;
+    double x;
+    memcpy(&x, &u, sizeof x);
+    return x;
+}
+
+size_t phks_signature_encoded_size(const phks_signature *sig)
+{
+    return sig ? blob_size(FORMAT, sig->length, sig->count) : 0;
+}
+
+phks_status phks_signature_encode(const phks_signature *sig, void *buffer,
+                                  size_t capacity, size_t *size)
+{
+    if (!sig || !size || (!buffer && capacity))
+        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+                         "phks_signature_encode: NULL argument");
+    size_t need = blob_size(FORMAT, sig->length, sig->count);
+    *size = need;
+    if (capacity < need)
+        return phks_fail(PHKS_ERROR_BUFFER_TOO_SMALL,
+                         "phks_signature_encode: %zu bytes needed, room for %zu",
+                         need, capacity);
+    const phks_options *o = &sig->options;
+    unsigned char *start = buffer, *p = start;
+    memcpy(p, "PHKS", 4);
+    p = put_u16(p + 4, FORMAT);
+    p = put_u16(p, 0);
+    p = put_f64(p, o->tau);
+    p = put_f64(p, o->cutoff);
+    p = put_u32(p, o->eigen_count);
+    p = put_u32(p, o->feature_count);
+    p = put_f64(p, o->feature_scale);
+    p = put_u32(p, (uint32_t)o->operator_kind);
+    p = put_u32(p, (uint32_t)o->box);
+    p = put_u32(p, o->scale_count);
+    p = put_f64(p, o->boundary_margin);
+    p = put_u32(p, (uint32_t)o->hks_scaling);
+    for (uint32_t s = 0; s < o->scale_count; s++)
+        p = put_f64(p, o->scales[s]);
+    p = put_u32(p, (uint32_t)sig->count);
+    for (size_t i = 0; i < sig->count; i++) {
+        p = put_u32(p, sig->vertex[i]);
+        for (int d = 0; d < 3; d++)
+            p = put_f64(p, sig->position[3 * i + d]);
+        p = put_f64(p, sig->persistence[i]);
+        for (size_t s = 0; s < sig->length; s++)
+            p = put_f64(p, sig->vectors[i * sig->length + s]);
+    }
+    put_u32(p, phks_crc32(start, (size_t)(p - start)));
+    return PHKS_OK;
+}
+
+/* Numbers that passed the checksum can still be impossible, for a blob
+ * made by something other than this library: check them like options. */
+static phks_status check_numbers(const phks_signature *sig)
+{
+    phks_options check;
+    if (phks_options_resolve(&sig->options, &check) != PHKS_OK) {
+        /* A copy: the message buffer cannot be printed into itself. */
+        char why[256];
+        snprintf(why, sizeof why, "%s", phks_last_error_message());
+        return phks_fail(PHKS_ERROR_CORRUPT, "signature blob: bad options (%s)",
+                         why);
+    }
+    for (size_t i = 0; i < sig->count; i++) {
+        bool ok = !isnan(sig->persistence[i]) && sig->persistence[i] >= 0;
+        for (int d = 0; d < 3; d++)
+            ok = ok && isfinite(sig->position[3 * i + d]);
+        for (size_t s = 0; s < sig->length; s++)
+            ok = ok && isfinite(sig->vectors[i * sig->length + s]);
+        if (!ok)
+            return phks_fail(PHKS_ERROR_CORRUPT,
+                             "signature blob: feature %zu holds an impossible "
+                             "number", i);
+    }
+    return PHKS_OK;
+}
+
+phks_status phks_signature_decode(const void *buffer, size_t size,
+                                  phks_signature **out)
+{
+    if (out)
+        *out = NULL;
+    if (!buffer || !out)
+        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+                         "phks_signature_decode: NULL argument");
+    const unsigned char *start = buffer, *p = start;
+    if (size < 8)
+        return phks_fail(PHKS_ERROR_TRUNCATED,
+                         "signature blob: %zu bytes, shorter than a header", size);
+    if (memcmp(p, "PHKS", 4) != 0)
+        return phks_fail(PHKS_ERROR_CORRUPT, "signature blob: bad magic bytes");
+    p += 4;
+    uint16_t format = get_u16(&p), flags = get_u16(&p);
+    if (format > FORMAT)
+        return phks_fail(PHKS_ERROR_UNSUPPORTED_VERSION,
+                         "signature blob: format %u is newer than this "
+                         "library's %d",
+                         format, FORMAT);
+    if (format == 0 || flags != 0)
+        return phks_fail(PHKS_ERROR_CORRUPT,
+                         "signature blob: format %u flags %u", format, flags);
+    if (size < header_size(format) + 4)
+        return phks_fail(PHKS_ERROR_TRUNCATED, "signature blob: %zu bytes", size);
+
+    phks_options o;
+    phks_options_init(&o);
+    o.tau = get_f64(&p);
+    o.cutoff = get_f64(&p);
+    o.eigen_count = get_u32(&p);
+    o.feature_count = get_u32(&p);
+    o.feature_scale = get_f64(&p);
+    o.operator_kind = (int32_t)get_u32(&p);
+    o.box = (int32_t)get_u32(&p);
+    o.scale_count = get_u32(&p);
+    o.boundary_margin = 0;
+    o.hks_scaling = PHKS_HKS_SCALING_NONE;
+    if (format >= 2) {
+        o.boundary_margin = get_f64(&p);
+        o.hks_scaling = (int32_t)get_u32(&p);
+    }
+    if (o.scale_count < 1 || o.scale_count > PHKS_MAX_SCALES)
+        return phks_fail(PHKS_ERROR_CORRUPT, "signature blob: %u scales",
+                         o.scale_count);
+    if (size < header_size(format) + 8 * (size_t)o.scale_count + 8)
+        return phks_fail(PHKS_ERROR_TRUNCATED, "signature blob: %zu bytes", size);
+    for (uint32_t s = 0; s < o.scale_count; s++)
+        o.scales[s] = get_f64(&p);
+    uint32_t count = get_u32(&p);
+    size_t need = blob_size(format, o.scale_count, count);
+    if (size < need)
+        return phks_fail(PHKS_ERROR_TRUNCATED,
+                         "signature blob: %zu bytes, %u features need %zu",
+                         size, count, need);
+    if (size > need)
+        return phks_fail(PHKS_ERROR_CORRUPT,
+                         "signature blob: %zu bytes, %u features need %zu",
+                         size, count, need);
+    const unsigned char *crc_at = start + need - 4;
+    uint32_t stored = get_u32(&crc_at);
+    if (stored != phks_crc32(start, need - 4))
+        return phks_fail(PHKS_ERROR_CORRUPT, "signature blob: checksum mismatch");
+    if (count == 0)
+        return phks_fail(PHKS_ERROR_CORRUPT, "signature blob: no features");
+
+    phks_signature *sig;
+    phks_status st = phks_signature_alloc(count, o.scale_count, &sig);
+    if (st != PHKS_OK)
+        return st;
+    sig->options = o;
+    for (size_t i = 0; i < count; i++) {
+        sig->vertex[i] = get_u32(&p);
+        for (int d = 0; d < 3; d++)
+            sig->position[3 * i + d] = get_f64(&p);
+        sig->persistence[i] = get_f64(&p);
+        for (size_t s = 0; s < o.scale_count; s++)
+            sig->vectors[i * o.scale_count + s] = get_f64(&p);
+    }
+    st = check_numbers(sig);
+    if (st != PHKS_OK) {
+        phks_signature_free(sig);
+        return st;
+    }
+    *out = sig;
+    return PHKS_OK;
+}

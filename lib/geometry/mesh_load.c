@@ -1,0 +1,45 @@
+/*
+ * mesh_load.c - phks_mesh_load and phks_mesh_load_memory: the reader layer
+ * (io/) turns the bytes into arrays, mesh.c cleans them into a mesh.
+ */
+#include "geometry/geometry.h"
+
+static phks_status build(phks_status st, phks_raw_mesh *raw, phks_mesh **mesh)
+{
+    if (st == PHKS_OK)
+        st = phks_mesh_build(raw->xyz, raw->vertex_count, raw->triangles,
+                             raw->triangle_count, raw->vertex_origin, mesh);
+    phks_raw_mesh_release(raw);
+    return st;
+}
+
+phks_status phks_mesh_load(const char *path, phks_mesh **mesh)
+{
+    if (mesh)
+        *mesh = NULL;
+    if (!path || !mesh)
+        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+                         "phks_mesh_load: NULL argument");
+    phks_raw_mesh raw = {0};
+    phks_status st = build(phks_raw_mesh_read_file(path, &raw), &raw, mesh);
+    if (st != PHKS_OK)
+        phks_error_prefix(path);
+    return st;
+}
+
+phks_status phks_mesh_load_memory(const void *data, size_t size,
+                                  phks_format format, phks_mesh **mesh)
+{
+    if (mesh)
+        *mesh = NULL;
+    if (!data || !mesh)
+        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+                         "phks_mesh_load_memory: NULL argument");
+    if (format < PHKS_FORMAT_AUTO || format > PHKS_FORMAT_STL)
+        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+                         "phks_mesh_load_memory: unknown format %d",
+                         (int)format);
+    phks_raw_mesh raw = {0};
+    return build(phks_raw_mesh_read_memory(data, size, format, &raw), &raw,
+                 mesh);
+}
