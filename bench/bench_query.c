@@ -47,7 +47,7 @@ static double uniform(uint64_t *state)
 static phks_signature *synthetic(uint64_t *state)
 {
     phks_signature *sig;
-    if (phks_signature_alloc(FEATURES, SCALES, &sig) != PHKS_OK)
+    if (phks__signature_alloc(FEATURES, SCALES, &sig) != PHKS_OK)
         return NULL;
     phks_options_init(&sig->options);
     for (size_t i = 0; i < FEATURES; i++) {

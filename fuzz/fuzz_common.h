@@ -34,7 +34,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
  * for leaving one of its own. */
 static inline void fuzz_clear_message(void)
 {
-    (void)phks_fail(PHKS_OK, "%s", "");
+    (void)phks__fail(PHKS_OK, "%s", "");
 }
 
 /* A failing call returns a known status and says why. */
@@ -61,7 +61,7 @@ static inline char *fuzz_copy(const uint8_t *data, size_t size)
 /* What a reader returns on success: at least one triangle, indices in
  * range, finite coordinates, and origins (when the reader welds) strictly
  * increasing. On failure every pointer is NULL. */
-static inline void fuzz_check_raw(phks_status st, const phks_raw_mesh *raw)
+static inline void fuzz_check_raw(phks_status st, const phks__raw_mesh *raw)
 {
     if (st != PHKS_OK) {
         fuzz_check_failure(st);
@@ -82,7 +82,7 @@ static inline void fuzz_check_raw(phks_status st, const phks_raw_mesh *raw)
 }
 
 /* The index in raw of the vertex whose origin is `origin`. */
-static inline size_t fuzz_raw_index(const phks_raw_mesh *raw, uint32_t origin)
+static inline size_t fuzz_raw_index(const phks__raw_mesh *raw, uint32_t origin)
 {
     if (!raw->vertex_origin) {
         FUZZ_CHECK(origin < raw->vertex_count);
@@ -106,7 +106,7 @@ static inline size_t fuzz_raw_index(const phks_raw_mesh *raw, uint32_t origin)
  * range. With raw (the reader's output it was built from, or NULL), each
  * vertex must also be the raw vertex its origin names. */
 static inline void fuzz_check_mesh(const phks_mesh *mesh,
-                                   const phks_raw_mesh *raw)
+                                   const phks__raw_mesh *raw)
 {
     size_t n = phks_mesh_vertex_count(mesh), t = phks_mesh_triangle_count(mesh);
     const double *xyz = phks_mesh_vertices(mesh);
@@ -166,11 +166,11 @@ static inline void fuzz_check_mesh(const phks_mesh *mesh,
 /* Runs one reader on an exact copy of the input, checks what it returns,
  * and builds a mesh from it as the loader would. */
 static inline void fuzz_reader(phks_status (*reader)(const char *, size_t,
-                                                     phks_raw_mesh *),
+                                                     phks__raw_mesh *),
                                const uint8_t *data, size_t size)
 {
     char *copy = fuzz_copy(data, size);
-    phks_raw_mesh raw;
+    phks__raw_mesh raw;
     memset(&raw, 0xA5, sizeof raw); /* the reader must set every field */
     fuzz_clear_message();
     phks_status st = reader(copy, size, &raw);
@@ -178,7 +178,7 @@ static inline void fuzz_reader(phks_status (*reader)(const char *, size_t,
     if (st == PHKS_OK) {
         phks_mesh *mesh = NULL;
         fuzz_clear_message();
-        st = phks_mesh_build(raw.xyz, raw.vertex_count, raw.triangles,
+        st = phks__mesh_build(raw.xyz, raw.vertex_count, raw.triangles,
                              raw.triangle_count, raw.vertex_origin, &mesh);
         if (st == PHKS_OK)
             fuzz_check_mesh(mesh, &raw);
@@ -186,7 +186,7 @@ static inline void fuzz_reader(phks_status (*reader)(const char *, size_t,
             fuzz_check_failure(st);
         phks_mesh_free(mesh);
     }
-    phks_raw_mesh_release(&raw);
+    phks__raw_mesh_release(&raw);
     free(copy);
 }
 

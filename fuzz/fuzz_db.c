@@ -56,7 +56,7 @@ static bool damaged(void)
 static phks_signature *query_signature(void)
 {
     phks_signature *sig = NULL;
-    FUZZ_CHECK(phks_signature_alloc(2, 15, &sig) == PHKS_OK);
+    FUZZ_CHECK(phks__signature_alloc(2, 15, &sig) == PHKS_OK);
     FUZZ_CHECK(phks_options_init(&sig->options) == PHKS_OK);
     for (size_t i = 0; i < 2; i++) {
         sig->vertex[i] = (uint32_t)i;

@@ -1,12 +1,12 @@
 /*
  * fuzz_obj.c - the Wavefront OBJ reader on any bytes, through the internal
- * phks_read_obj (no format detection in the way), then the mesh built from
+ * phks__read_obj (no format detection in the way), then the mesh built from
  * what it returns; both checked against fuzz_common.h's invariants.
  */
 #include "fuzz_common.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
-    fuzz_reader(phks_read_obj, data, size);
+    fuzz_reader(phks__read_obj, data, size);
     return 0;
 }

@@ -1,6 +1,6 @@
 /*
  * fuzz_ply.c - the PLY reader (ascii and both binary encodings) on any
- * bytes, through the internal phks_read_ply (no format detection in the
+ * bytes, through the internal phks__read_ply (no format detection in the
  * way), then the mesh built from what it returns; both checked against
  * fuzz_common.h's invariants.
  */
@@ -8,6 +8,6 @@
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
-    fuzz_reader(phks_read_ply, data, size);
+    fuzz_reader(phks__read_ply, data, size);
     return 0;
 }

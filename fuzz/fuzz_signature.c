@@ -54,7 +54,7 @@ static void check_same(const phks_signature *a, const phks_signature *b)
     FUZZ_CHECK(same_bits(&x->boundary_margin, &y->boundary_margin,
                          sizeof x->boundary_margin));
     FUZZ_CHECK(x->hks_scaling == y->hks_scaling);
-    FUZZ_CHECK(phks_options_comparable(x, y));
+    FUZZ_CHECK(phks__options_comparable(x, y));
     FUZZ_CHECK(same_bits(a->vertex, b->vertex, a->count * sizeof *a->vertex));
     FUZZ_CHECK(same_bits(a->position, b->position,
                          3 * a->count * sizeof *a->position));
@@ -133,7 +133,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     unsigned char *fixed = malloc(size);
     FUZZ_CHECK(fixed != NULL);
     memcpy(fixed, data, size);
-    uint32_t crc = phks_crc32(fixed, size - 4);
+    uint32_t crc = phks__crc32(fixed, size - 4);
     for (int i = 0; i < 4; i++)
         fixed[size - 4 + i] = (unsigned char)(crc >> (8 * i));
     if (memcmp(fixed, data, size) != 0)

@@ -1,6 +1,6 @@
 /*
  * fuzz_stl.c - the STL reader (ascii and binary, with welding) on any
- * bytes, through the internal phks_read_stl (no format detection in the
+ * bytes, through the internal phks__read_stl (no format detection in the
  * way), then the mesh built from what it returns; both checked against
  * fuzz_common.h's invariants.
  */
@@ -8,6 +8,6 @@
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
-    fuzz_reader(phks_read_stl, data, size);
+    fuzz_reader(phks__read_stl, data, size);
     return 0;
 }

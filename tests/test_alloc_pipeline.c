@@ -45,7 +45,7 @@
 
 /* ---- results: what a step made, as plain bytes (outside the hook) */
 
-static void put_text(bytes *b, const char *fmt, ...) PHKS_PRINTF(2, 3);
+static void put_text(bytes *b, const char *fmt, ...) PHKS__PRINTF(2, 3);
 static void put_text(bytes *b, const char *fmt, ...)
 {
     char line[256];

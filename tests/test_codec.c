@@ -9,7 +9,7 @@
 static phks_signature *make(size_t count, uint64_t seed)
 {
     phks_signature *sig;
-    ck_assert_int_eq(phks_signature_alloc(count, 15, &sig), PHKS_OK);
+    ck_assert_int_eq(phks__signature_alloc(count, 15, &sig), PHKS_OK);
     phks_options_init(&sig->options);
     for (size_t i = 0; i < count; i++) {
         sig->vertex[i] = (uint32_t)(i * 7);
@@ -44,7 +44,7 @@ START_TEST(round_trip_is_exact)
     ck_assert_mem_eq(back->position, sig->position, 45 * sizeof(double));
     ck_assert_mem_eq(back->persistence, sig->persistence, 15 * sizeof(double));
     ck_assert_mem_eq(back->vectors, sig->vectors, 225 * sizeof(double));
-    ck_assert(phks_options_comparable(&back->options, &sig->options));
+    ck_assert(phks__options_comparable(&back->options, &sig->options));
     double score;
     ck_assert_int_eq(phks_score(sig, back, &score), PHKS_OK);
     ck_assert_double_eq(score, 0);
@@ -95,7 +95,7 @@ START_TEST(format_1_still_reads)
     memcpy(old, blob, 52);
     memcpy(old + 52, blob + 64, size - 64);
     old[4] = 1;
-    uint32_t crc = phks_crc32(old, old_size - 4);
+    uint32_t crc = phks__crc32(old, old_size - 4);
     for (int i = 0; i < 4; i++)
         old[old_size - 4 + i] = (unsigned char)(crc >> (8 * i));
     phks_signature *back;
@@ -108,7 +108,7 @@ START_TEST(format_1_still_reads)
                      PHKS_ERROR_INVALID_ARGUMENT);
     ck_assert_int_eq(phks_signature_options(back, NULL),
                      PHKS_ERROR_INVALID_ARGUMENT);
-    ck_assert(phks_options_comparable(&back->options, &sig->options));
+    ck_assert(phks__options_comparable(&back->options, &sig->options));
     ck_assert_mem_eq(back->vectors, sig->vectors, 30 * sizeof(double));
     phks_signature_free(back);
     phks_signature_free(sig);

@@ -28,8 +28,8 @@ static phks_signature *synthetic(size_t count, uint64_t *seed,
                                  bool other_options)
 {
     phks_signature *sig;
-    ck_assert_int_eq(phks_signature_alloc(count, 15, &sig), PHKS_OK);
-    ck_assert_int_eq(phks_options_resolve(NULL, &sig->options), PHKS_OK);
+    ck_assert_int_eq(phks__signature_alloc(count, 15, &sig), PHKS_OK);
+    ck_assert_int_eq(phks__options_resolve(NULL, &sig->options), PHKS_OK);
     if (other_options)
         sig->options.tau *= 1.5;
     for (size_t i = 0; i < count; i++) {
@@ -52,7 +52,7 @@ static void same_signature(const phks_signature *a, const phks_signature *b)
     ck_assert_mem_eq(a->persistence, b->persistence, a->count * sizeof(double));
     ck_assert_mem_eq(a->vectors, b->vectors,
                      a->count * a->length * sizeof(double));
-    ck_assert(phks_options_comparable(&a->options, &b->options));
+    ck_assert(phks__options_comparable(&a->options, &b->options));
 }
 
 static char *temp_dir(void)
@@ -337,7 +337,7 @@ START_TEST(file_layout_is_as_documented)
                                            (size_t)sqlite3_column_bytes(st, 1),
                                            &opts),
                      PHKS_OK);
-    ck_assert(phks_options_comparable(&opts->options, &sig->options));
+    ck_assert(phks__options_comparable(&opts->options, &sig->options));
     phks_signature_free(opts);
     sqlite3_finalize(st);
     sqlite3_close(raw);
@@ -369,7 +369,7 @@ START_TEST(query_equals_brute_force)
         snprintf(names[i], sizeof names[i], "shape %zu", i);
     }
     for (size_t i = 9; i < N + 20; i += 10) { /* duplicates */
-        ck_assert_int_eq(phks_signature_alloc(sigs[i - 4]->count, 15, &sigs[i]),
+        ck_assert_int_eq(phks__signature_alloc(sigs[i - 4]->count, 15, &sigs[i]),
                          PHKS_OK);
         sigs[i]->options = sigs[i - 4]->options;
         memcpy(sigs[i]->vertex, sigs[i - 4]->vertex,
@@ -1214,7 +1214,7 @@ START_TEST(bad_arguments_are_refused)
     uint64_t seed = 14;
     phks_signature *sig = synthetic(4, &seed, false);
     phks_signature *empty;
-    ck_assert_int_eq(phks_signature_alloc(0, 15, &empty), PHKS_OK);
+    ck_assert_int_eq(phks__signature_alloc(0, 15, &empty), PHKS_OK);
     empty->options = sig->options;
     phks_db *db = (phks_db *)1;
     ck_assert_int_eq(phks_db_open(NULL, 0, &db), BAD);

@@ -502,7 +502,7 @@ START_TEST(test_more_pairs_than_vertices)
 }
 END_TEST
 
-/* phks_ritz_product against cblas_dgemm, at sizes that are not multiples
+/* phks__ritz_product against cblas_dgemm, at sizes that are not multiples
  * of its tiles (8 x 6) or stretches (64 rows), the same bits for 1, 2 and
  * 3 threads, with and without AVX2. */
 START_TEST(test_ritz_product)
@@ -514,14 +514,14 @@ START_TEST(test_ritz_product)
         double *ref = malloc(n * k * sizeof *ref), *x = malloc(n * k * sizeof *x);
         double *first = malloc(n * k * sizeof *first);
         REQUIRE(v && s && ref && x && first);
-        phks_random_fill(v, n * m, 3 + c);
-        phks_random_fill(s, m * k, 5 + c);
+        phks__random_fill(v, n * m, 3 + c);
+        phks__random_fill(s, m * k, 5 + c);
         cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, (int)n, (int)k, (int)m,
                     1.0, v, (int)n, s, (int)m, 0.0, ref, (int)n);
         for (int avx2 = 0; avx2 < 2; avx2++)
             for (unsigned threads = 1; threads <= 3; threads++) {
-                REQUIRE(phks_ritz_product(v, n, m, s, k, x, threads,
-                                          avx2 && phks_cpu_avx2()) == PHKS_OK);
+                REQUIRE(phks__ritz_product(v, n, m, s, k, x, threads,
+                                          avx2 && phks__cpu_avx2()) == PHKS_OK);
                 double worst = 0, scale = 0;
                 for (size_t i = 0; i < n * k; i++) {
                     worst = fmax(worst, fabs(x[i] - ref[i]));

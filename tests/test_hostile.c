@@ -97,7 +97,7 @@ static void *meter_malloc(void *user, size_t size)
     return base ? meter_keep(base, size) : NULL;
 }
 
-/* phks_realloc passes NULL on to malloc_fn: ptr is a block of ours. */
+/* phks__realloc passes NULL on to malloc_fn: ptr is a block of ours. */
 static void *meter_realloc(void *user, void *ptr, size_t size)
 {
     (void)user;
@@ -441,7 +441,7 @@ START_TEST(triangle_area_is_unchanged_at_ordinary_scales)
         double n[3] = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2],
                        u[0] * v[1] - u[1] * v[0]};
         double plain = 0.5 * sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-        double got = phks_triangle_area(p, p + 3, p + 6);
+        double got = phks__triangle_area(p, p + 3, p + 6);
         differ += memcmp(&plain, &got, sizeof got) != 0;
     }
     ck_assert_uint_eq(differ, 0);
@@ -717,7 +717,7 @@ END_TEST
 static bytes signature_blob(void)
 {
     phks_signature *sig;
-    ck_assert_int_eq(phks_signature_alloc(2, 15, &sig), PHKS_OK);
+    ck_assert_int_eq(phks__signature_alloc(2, 15, &sig), PHKS_OK);
     phks_options_init(&sig->options);
     for (size_t i = 0; i < 2; i++) {
         sig->vertex[i] = (uint32_t)i;
@@ -738,7 +738,7 @@ static bytes signature_blob(void)
 
 static void reseal(bytes *b)
 {
-    uint32_t crc = phks_crc32(b->p, b->n - 4);
+    uint32_t crc = phks__crc32(b->p, b->n - 4);
     for (int i = 0; i < 4; i++)
         b->p[b->n - 4 + i] = (unsigned char)(crc >> (8 * i));
 }

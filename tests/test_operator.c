@@ -14,7 +14,7 @@
  * Checked entry-wise (relative 1e-12) with the CSR densified, op->mass
  * against M, the CSR's structure, symmetry, zero row sums of
  * S = M^1/2 B M^1/2, positive semi-definiteness (LAPACKE_dsyev), the
- * Gershgorin bound, and phks_operator_apply on blocks of k = 1, 3, 8
+ * Gershgorin bound, and phks__operator_apply on blocks of k = 1, 3, 8
  * vectors against a dense product, bit-identical for 1, 2 and 3 threads.
  *
  * Meshes: perturbed ellipsoids (closed, 42 to 642 vertices), a torus, an
@@ -202,7 +202,7 @@ typedef struct {
 } op_errors;
 static op_errors worst_all;
 
-static double *densify(const phks_operator_matrix *op)
+static double *densify(const phks__operator_matrix *op)
 {
     size_t n = op->n;
     double *b = calloc(n * n, sizeof *b);
@@ -239,8 +239,8 @@ static void compare_operator(const char *name, const phks_mesh *mesh,
                 "is ambiguous",
                 name, d.near_cut);
     size_t n = d.n;
-    phks_operator_matrix op;
-    phks_status st = phks_operator_build(mesh, opt, &op);
+    phks__operator_matrix op;
+    phks_status st = phks__operator_build(mesh, opt, &op);
     REQUIRE_MSG(st == PHKS_OK, "%s: %s", name, phks_last_error_message());
     REQUIRE(op.n == n);
 
@@ -320,7 +320,7 @@ static void compare_operator(const char *name, const phks_mesh *mesh,
         REQUIRE(x && y1 && yt);
         for (size_t i = 0; i < n * k; i++)
             x[i] = 2 * test_random(&rng) - 1;
-        phks_operator_apply(&op, x, y1, k, 1);
+        phks__operator_apply(&op, x, y1, k, 1);
         for (size_t w = 0; w < n; w++)
             for (size_t j = 0; j < k; j++) {
                 double exact = 0, size = 0;
@@ -337,7 +337,7 @@ static void compare_operator(const char *name, const phks_mesh *mesh,
             }
         for (unsigned threads = 2; threads <= 3; threads++) {
             memset(yt, 0xff, n * k * sizeof *yt);
-            phks_operator_apply(&op, x, yt, k, threads);
+            phks__operator_apply(&op, x, yt, k, threads);
             REQUIRE_MSG(memcmp(y1, yt, n * k * sizeof *yt) == 0,
                         "%s: apply with %u threads differs from 1 thread (k = %zu)",
                         name, threads, k);
@@ -351,15 +351,15 @@ static void compare_operator(const char *name, const phks_mesh *mesh,
     for (unsigned threads = 1; threads <= 2; threads++) {
         phks_options o = *opt;
         o.threads = threads;
-        phks_operator_matrix op2;
-        REQUIRE(phks_operator_build(mesh, &o, &op2) == PHKS_OK);
+        phks__operator_matrix op2;
+        REQUIRE(phks__operator_build(mesh, &o, &op2) == PHKS_OK);
         REQUIRE(op2.n == n && op2.row_start[n] == op.row_start[n]);
         REQUIRE(memcmp(op2.row_start, op.row_start, (n + 1) * sizeof *op.row_start) == 0);
         REQUIRE(memcmp(op2.col, op.col, op.row_start[n] * sizeof *op.col) == 0);
         REQUIRE(memcmp(op2.val, op.val, op.row_start[n] * sizeof *op.val) == 0);
         REQUIRE(memcmp(op2.mass, op.mass, n * sizeof *op.mass) == 0);
         REQUIRE(op2.norm_bound == op.norm_bound);
-        phks_operator_release(&op2);
+        phks__operator_release(&op2);
     }
 
     printf("%-22s %-11s n %4zu nnz/row %6.1f  entry %.1e mass %.1e sym %.1e "
@@ -372,7 +372,7 @@ static void compare_operator(const char *name, const phks_mesh *mesh,
     worst_all.mass = fmax(worst_all.mass, e.mass);
     worst_all.apply = fmax(worst_all.apply, e.apply);
     free(b);
-    phks_operator_release(&op);
+    phks__operator_release(&op);
     dense_free(&d);
 }
 
@@ -383,7 +383,7 @@ static void check_mesh(const char *name, const soup *s, double tau,
 {
     phks_mesh *mesh = soup_mesh(s);
     double scale = axis_aligned_scale(mesh), lib_scale = 0;
-    REQUIRE(phks_unit_box_scale(mesh, PHKS_BOX_AXIS_ALIGNED, &lib_scale) == PHKS_OK);
+    REQUIRE(phks__unit_box_scale(mesh, PHKS_BOX_AXIS_ALIGNED, &lib_scale) == PHKS_OK);
     REQUIRE_MSG(fabs(lib_scale - scale) <= 1e-15 * scale,
                 "%s: axis-aligned scale %.17g, expected %.17g", name, lib_scale,
                 scale);
@@ -513,8 +513,8 @@ START_TEST(test_principal_box)
     add_icosphere(&sym, 2, c, ax, 0, &rng);
     phks_mesh *mesh = soup_mesh(&sym);
     double principal, aligned;
-    REQUIRE(phks_unit_box_scale(mesh, PHKS_BOX_PRINCIPAL, &principal) == PHKS_OK);
-    REQUIRE(phks_unit_box_scale(mesh, PHKS_BOX_AXIS_ALIGNED, &aligned) == PHKS_OK);
+    REQUIRE(phks__unit_box_scale(mesh, PHKS_BOX_PRINCIPAL, &principal) == PHKS_OK);
+    REQUIRE(phks__unit_box_scale(mesh, PHKS_BOX_AXIS_ALIGNED, &aligned) == PHKS_OK);
     /* The icosphere is symmetric under each coordinate reflection, so its
      * principal axes are x, y, z and the box is 2 x 1.2 x 0.6. */
     REQUIRE_MSG(fabs(principal - 0.5) < 1e-12, "principal scale %.17g", principal);
@@ -527,7 +527,7 @@ START_TEST(test_principal_box)
     add_icosphere(&base, 3, c, ax, 0.02, &rng);
     phks_mesh *original = soup_mesh(&base);
     double s0;
-    REQUIRE(phks_unit_box_scale(original, PHKS_BOX_PRINCIPAL, &s0) == PHKS_OK);
+    REQUIRE(phks__unit_box_scale(original, PHKS_BOX_PRINCIPAL, &s0) == PHKS_OK);
     double worst = 0;
     for (int trial = 0; trial < 6; trial++) {
         soup r = {0};
@@ -538,11 +538,11 @@ START_TEST(test_principal_box)
         rotate(&r, rot, shift);
         phks_mesh *rotated = soup_mesh(&r);
         double s1, a1;
-        REQUIRE(phks_unit_box_scale(rotated, PHKS_BOX_PRINCIPAL, &s1) == PHKS_OK);
+        REQUIRE(phks__unit_box_scale(rotated, PHKS_BOX_PRINCIPAL, &s1) == PHKS_OK);
         REQUIRE_MSG(fabs(s1 - s0) <= 1e-12 * s0,
                     "rotation %d: principal scale %.17g, original %.17g", trial, s1, s0);
         worst = fmax(worst, fabs(s1 - s0) / s0);
-        REQUIRE(phks_unit_box_scale(rotated, PHKS_BOX_AXIS_ALIGNED, &a1) == PHKS_OK);
+        REQUIRE(phks__unit_box_scale(rotated, PHKS_BOX_AXIS_ALIGNED, &a1) == PHKS_OK);
         REQUIRE(fabs(a1 - axis_aligned_scale(rotated)) <= 1e-15 * a1);
 
         if (trial < 2)
@@ -556,9 +556,9 @@ START_TEST(test_principal_box)
                  * the oracle at that scale... */
                 compare_operator("principal-rotated", rotated, &opt, s1);
                 /* ...and equal to the original's up to rounding. */
-                phks_operator_matrix o0, o1;
-                REQUIRE(phks_operator_build(original, &opt, &o0) == PHKS_OK);
-                REQUIRE(phks_operator_build(rotated, &opt, &o1) == PHKS_OK);
+                phks__operator_matrix o0, o1;
+                REQUIRE(phks__operator_build(original, &opt, &o0) == PHKS_OK);
+                REQUIRE(phks__operator_build(rotated, &opt, &o1) == PHKS_OK);
                 REQUIRE(o0.row_start[o0.n] == o1.row_start[o1.n]);
                 double *d0 = densify(&o0), *d1 = densify(&o1);
                 size_t n = o0.n;
@@ -570,8 +570,8 @@ START_TEST(test_principal_box)
                     REQUIRE(fabs(o0.mass[i] - o1.mass[i]) <= 1e-10 * o0.mass[i]);
                 free(d0);
                 free(d1);
-                phks_operator_release(&o0);
-                phks_operator_release(&o1);
+                phks__operator_release(&o0);
+                phks__operator_release(&o1);
             }
         phks_mesh_free(rotated);
         soup_free(&r);
@@ -681,13 +681,13 @@ static void from_spectrum(const double q[9], const double d[3], double a[9])
             a[3 * i + j] = a[3 * j + i];
 }
 
-/* phks_sym3_eigen(a) against dsyev: values, residuals, orthonormality,
+/* phks__sym3_eigen(a) against dsyev: values, residuals, orthonormality,
  * the sign convention, and the eigenspaces (a vector for a simple
  * eigenvalue, the projector for a repeated one). */
 static void check_sym3(const double a[9], const char *what, int index)
 {
     double w[3], v[9], lw[3], lv[9];
-    phks_sym3_eigen(a, w, v);
+    phks__sym3_eigen(a, w, v);
     memcpy(lv, a, sizeof lv);
     REQUIRE(LAPACKE_dsyev(LAPACK_ROW_MAJOR, 'V', 'U', 3, lv, 3, lw) == 0);
     double norm = fmax(fabs(lw[0]), fabs(lw[2]));
@@ -780,7 +780,7 @@ START_TEST(test_sym3_eigen_against_dsyev)
     for (int i = 0; i < 4; i++) {
         double a[9] = {diag[i][0], 0, 0, 0, diag[i][1], 0, 0, 0, diag[i][2]};
         double w[3], v[9];
-        phks_sym3_eigen(a, w, v);
+        phks__sym3_eigen(a, w, v);
         check_sym3(a, "diagonal", i);
         for (int j = 0; j < 3; j++) {
             int ones = 0;
@@ -795,7 +795,7 @@ START_TEST(test_sym3_eigen_against_dsyev)
     }
     /* The zero matrix: zero values, the identity. */
     double zero[9] = {0}, w[3], v[9];
-    phks_sym3_eigen(zero, w, v);
+    phks__sym3_eigen(zero, w, v);
     for (int k = 0; k < 9; k++)
         REQUIRE(v[k] == (k % 4 == 0));
     for (int j = 0; j < 3; j++)
@@ -804,12 +804,12 @@ START_TEST(test_sym3_eigen_against_dsyev)
      * bit and scales the values exactly. */
     double a[9] = {2, -1, 0.5, 99, 3, 0.25, -99, 99, 1}, b[9], w2[3], v2[9];
     double full[9] = {2, -1, 0.5, -1, 3, 0.25, 0.5, 0.25, 1};
-    phks_sym3_eigen(a, w, v);
-    phks_sym3_eigen(full, w2, v2);
+    phks__sym3_eigen(a, w, v);
+    phks__sym3_eigen(full, w2, v2);
     REQUIRE(memcmp(v, v2, sizeof v) == 0 && memcmp(w, w2, sizeof w) == 0);
     for (int k = 0; k < 9; k++)
         b[k] = ldexp(full[k], -700);
-    phks_sym3_eigen(b, w2, v2);
+    phks__sym3_eigen(b, w2, v2);
     REQUIRE(memcmp(v, v2, sizeof v) == 0);
     for (int j = 0; j < 3; j++)
         REQUIRE(w2[j] == ldexp(w[j], -700));
@@ -831,7 +831,7 @@ START_TEST(test_principal_box_any_size_and_blas_threads)
     rotate(&base, rot, shift);
     phks_mesh *mesh = soup_mesh(&base);
     double s0;
-    REQUIRE(phks_unit_box_scale(mesh, PHKS_BOX_PRINCIPAL, &s0) == PHKS_OK);
+    REQUIRE(phks__unit_box_scale(mesh, PHKS_BOX_PRINCIPAL, &s0) == PHKS_OK);
     phks_mesh_free(mesh);
     const double sizes[] = {0x1p-490, 0x1p-100, 0x1p100, 0x1p490,
                             1e-150,   1e-100,   1e-60,   1e60,
@@ -843,7 +843,7 @@ START_TEST(test_principal_box_any_size_and_blas_threads)
             t.xyz[k] = base.xyz[k] * sizes[i];
         phks_mesh *m = soup_mesh(&t);
         double s;
-        phks_status st = phks_unit_box_scale(m, PHKS_BOX_PRINCIPAL, &s);
+        phks_status st = phks__unit_box_scale(m, PHKS_BOX_PRINCIPAL, &s);
         REQUIRE_MSG(st == PHKS_OK, "size %g: %s", sizes[i], phks_last_error_message());
         if (i < 4)
             REQUIRE_MSG(s * sizes[i] == s0, "size %g: %.17g, at 1: %.17g",
@@ -860,7 +860,7 @@ START_TEST(test_principal_box_any_size_and_blas_threads)
     int before = openblas_get_num_threads();
     for (int t = 0; t < 2; t++) {
         openblas_set_num_threads(t + 1);
-        REQUIRE(phks_unit_box_scale(mesh, PHKS_BOX_PRINCIPAL, &by[t]) == PHKS_OK);
+        REQUIRE(phks__unit_box_scale(mesh, PHKS_BOX_PRINCIPAL, &by[t]) == PHKS_OK);
     }
     openblas_set_num_threads(before);
     REQUIRE(memcmp(&by[0], &by[1], sizeof by[0]) == 0);

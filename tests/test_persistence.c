@@ -978,7 +978,7 @@ START_TEST(test_out_of_memory)
 }
 END_TEST
 
-/* Progress of phks_persistence_run, reported in [0.25, 0.75]. */
+/* Progress of phks__persistence_run, reported in [0.25, 0.75]. */
 typedef struct {
     int calls, stop_at; /* cancel at report stop_at (0: never)       */
     int bad;            /* other stage, out of range, or backwards    */
@@ -1011,7 +1011,7 @@ static int reports_of(const phks_mesh *mesh, const double *f, size_t max_count)
     o.progress_user = &log;
     ck_assert_int_eq(phks_persistent_maxima(mesh, f, max_count, 0, a, &ca, la),
                      PHKS_OK);
-    ck_assert_int_eq(phks_persistence_run(mesh, f, max_count, 0, b, &cb, lb, &o,
+    ck_assert_int_eq(phks__persistence_run(mesh, f, max_count, 0, b, &cb, lb, &o,
                                           0.25, 0.5),
                      PHKS_OK);
     ck_assert_uint_eq(ca, cb);
@@ -1073,7 +1073,7 @@ START_TEST(test_progress_grows_and_cancels)
         phks_maximum out[15];
         size_t count = 99;
         long live = alloc_live;
-        ck_assert_int_eq(phks_persistence_run(mesh, f, 15, 0, out, &count,
+        ck_assert_int_eq(phks__persistence_run(mesh, f, 15, 0, out, &count,
                                               label, &o, 0.25, 0.5),
                          PHKS_ERROR_CANCELLED);
         ck_assert_int_eq(log.calls, k); /* nothing after the cancellation */

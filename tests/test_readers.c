@@ -16,12 +16,12 @@
 #include <unistd.h>
 #include <zlib.h>
 
-typedef phks_status (*reader_fn)(const char *, size_t, phks_raw_mesh *);
+typedef phks_status (*reader_fn)(const char *, size_t, phks__raw_mesh *);
 
 /* ------------------------------------------------------------- helpers */
 
 static phks_status run_reader(reader_fn fn, const void *data, size_t len,
-                              phks_raw_mesh *raw)
+                              phks__raw_mesh *raw)
 {
     char *copy = malloc(len ? len : 1);
     ck_assert_ptr_nonnull(copy);
@@ -43,7 +43,7 @@ static void expect_message(const char *needle)
 static void expect_fail_n(reader_fn fn, const void *data, size_t len,
                           phks_status want, const char *needle)
 {
-    phks_raw_mesh raw;
+    phks__raw_mesh raw;
     phks_status st = run_reader(fn, data, len, &raw);
     ck_assert_msg(st == want, "status %d (%s), wanted %d; message \"%s\"",
                   (int)st, phks_status_string(st), (int)want,
@@ -57,7 +57,7 @@ static void expect_fail_n(reader_fn fn, const void *data, size_t len,
 #define EXPECT_FAIL(fn, literal, status, needle) \
     expect_fail_n(fn, literal, sizeof literal - 1, status, needle)
 
-static void expect_vertex(const phks_raw_mesh *raw, size_t v, double x,
+static void expect_vertex(const phks__raw_mesh *raw, size_t v, double x,
                           double y, double z)
 {
     ck_assert_uint_lt(v, raw->vertex_count);
@@ -66,7 +66,7 @@ static void expect_vertex(const phks_raw_mesh *raw, size_t v, double x,
     ck_assert_double_eq(raw->xyz[3 * v + 2], z);
 }
 
-static void expect_triangles(const phks_raw_mesh *raw, const uint32_t *tri,
+static void expect_triangles(const phks__raw_mesh *raw, const uint32_t *tri,
                              size_t count)
 {
     ck_assert_uint_eq(raw->triangle_count, count);
@@ -80,7 +80,7 @@ static void expect_triangles(const phks_raw_mesh *raw, const uint32_t *tri,
 static const double tetra_xyz[12] = {0, 0, 0, 1.5, 0, 0, 0, 2.25, 0, 0, 0, 3};
 static const uint32_t tetra_tri[12] = {0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3};
 
-static void expect_tetra(const phks_raw_mesh *raw)
+static void expect_tetra(const phks__raw_mesh *raw)
 {
     ck_assert_uint_eq(raw->vertex_count, 4);
     for (size_t v = 0; v < 4; v++)
@@ -141,7 +141,7 @@ static const char two_stl[] = "solid two\n"
                               "  endfacet\n"
                               "endsolid two\n";
 
-static void expect_two_triangles(const phks_raw_mesh *raw)
+static void expect_two_triangles(const phks__raw_mesh *raw)
 {
     static const uint32_t tri[6] = {0, 1, 2, 1, 3, 2};
     static const uint32_t origin[4] = {0, 1, 2, 4};
@@ -181,15 +181,15 @@ static void expect_same_as_strtod(const char *text)
 {
     double got = -1, want = strtod(text, NULL);
     const char *stop = NULL;
-    phks_scan_result r = phks_parse_double(text, text + strlen(text), &got, &stop);
+    phks__scan_result r = phks__parse_double(text, text + strlen(text), &got, &stop);
     /* Check records every passing assertion in a file, which is slow in
      * loops this long: only failures reach it. */
     if (!isfinite(want)) {
-        if (r != PHKS_SCAN_NON_FINITE)
+        if (r != PHKS__SCAN_NON_FINITE)
             ck_abort_msg("'%s': result %d", text, (int)r);
         return;
     }
-    if (r != PHKS_SCAN_OK || stop != text + strlen(text))
+    if (r != PHKS__SCAN_OK || stop != text + strlen(text))
         ck_abort_msg("'%s': result %d", text, (int)r);
     if (memcmp(&got, &want, sizeof got) != 0)
         ck_abort_msg("'%s': got %.17g, strtod %.17g", text, got, want);
@@ -252,33 +252,33 @@ START_TEST(scan_parse_special_values)
     for (size_t i = 0; i < sizeof non_finite / sizeof *non_finite; i++) {
         const char *t = non_finite[i], *stop;
         double v;
-        ck_assert_msg(phks_parse_double(t, t + strlen(t), &v, &stop) ==
-                          PHKS_SCAN_NON_FINITE,
+        ck_assert_msg(phks__parse_double(t, t + strlen(t), &v, &stop) ==
+                          PHKS__SCAN_NON_FINITE,
                       "'%s'", t);
     }
     static const char *bad[] = {"", "-", ".", "e5", "x", "+-1", "in", "#"};
     for (size_t i = 0; i < sizeof bad / sizeof *bad; i++) {
         const char *t = bad[i], *stop;
         double v;
-        ck_assert_msg(phks_parse_double(t, t + strlen(t), &v, &stop) ==
-                          PHKS_SCAN_BAD,
+        ck_assert_msg(phks__parse_double(t, t + strlen(t), &v, &stop) ==
+                          PHKS__SCAN_BAD,
                       "'%s'", t);
     }
     /* Stops at the end of the buffer, not at a NUL. */
     const char digits[] = "12345";
     const char *stop;
     double v;
-    ck_assert_int_eq(phks_parse_double(digits, digits + 3, &v, &stop),
-                     PHKS_SCAN_OK);
+    ck_assert_int_eq(phks__parse_double(digits, digits + 3, &v, &stop),
+                     PHKS__SCAN_OK);
     ck_assert_double_eq(v, 123);
     int64_t i;
-    ck_assert_int_eq(phks_parse_int(digits, digits + 2, &i, &stop), PHKS_SCAN_OK);
+    ck_assert_int_eq(phks__parse_int(digits, digits + 2, &i, &stop), PHKS__SCAN_OK);
     ck_assert_int_eq(i, 12);
     const char *big = "9223372036854775808";
-    ck_assert_int_eq(phks_parse_int(big, big + strlen(big), &i, &stop),
-                     PHKS_SCAN_RANGE);
+    ck_assert_int_eq(phks__parse_int(big, big + strlen(big), &i, &stop),
+                     PHKS__SCAN_RANGE);
     const char *min = "-9223372036854775807";
-    ck_assert_int_eq(phks_parse_int(min, min + strlen(min), &i, &stop), PHKS_SCAN_OK);
+    ck_assert_int_eq(phks__parse_int(min, min + strlen(min), &i, &stop), PHKS__SCAN_OK);
     ck_assert(i == -INT64_MAX);
 }
 END_TEST
@@ -286,21 +286,21 @@ END_TEST
 START_TEST(scan_counts_lines)
 {
     const char text[] = "a b # c\n\n  # d\r\nx 1.5 2\\\n 3";
-    phks_scan s;
-    phks_scan_init(&s, text, sizeof text - 1);
+    phks__scan s;
+    phks__scan_init(&s, text, sizeof text - 1);
     s.comment = '#';
     s.continuation = true;
     const char *t;
-    ck_assert_uint_eq(phks_scan_token(&s, &t), 1);
-    ck_assert_uint_eq(phks_scan_token(&s, &t), 1);
-    ck_assert(phks_scan_eol(&s));
-    phks_scan_space(&s);
+    ck_assert_uint_eq(phks__scan_token(&s, &t), 1);
+    ck_assert_uint_eq(phks__scan_token(&s, &t), 1);
+    ck_assert(phks__scan_eol(&s));
+    phks__scan_space(&s);
     ck_assert_uint_eq(s.line, 4);
-    ck_assert_uint_eq(phks_scan_token(&s, &t), 1);
+    ck_assert_uint_eq(phks__scan_token(&s, &t), 1);
     double v;
-    ck_assert_int_eq(phks_scan_double(&s, &v), PHKS_SCAN_OK);
+    ck_assert_int_eq(phks__scan_double(&s, &v), PHKS__SCAN_OK);
     ck_assert_double_eq(v, 1.5);
-    ck_assert_int_eq(phks_scan_double(&s, &v), PHKS_SCAN_BAD); /* "2\" */
+    ck_assert_int_eq(phks__scan_double(&s, &v), PHKS__SCAN_BAD); /* "2\" */
 }
 END_TEST
 
@@ -308,10 +308,10 @@ END_TEST
 
 START_TEST(off_tetrahedron)
 {
-    phks_raw_mesh raw;
-    ck_assert_int_eq(READ(phks_read_off, tetra_off, &raw), PHKS_OK);
+    phks__raw_mesh raw;
+    ck_assert_int_eq(READ(phks__read_off, tetra_off, &raw), PHKS_OK);
     expect_tetra(&raw);
-    phks_raw_mesh_release(&raw);
+    phks__raw_mesh_release(&raw);
 }
 END_TEST
 
@@ -344,11 +344,11 @@ START_TEST(off_header_forms)
     const char *texts[] = {counts_on_header, no_edge_count, colours, normals,
                            textures};
     for (size_t i = 0; i < 5; i++) {
-        phks_raw_mesh raw;
-        phks_status st = run_reader(phks_read_off, texts[i], strlen(texts[i]), &raw);
+        phks__raw_mesh raw;
+        phks_status st = run_reader(phks__read_off, texts[i], strlen(texts[i]), &raw);
         ck_assert_msg(st == PHKS_OK, "text %zu: %s", i, phks_last_error_message());
         expect_tetra(&raw);
-        phks_raw_mesh_release(&raw);
+        phks__raw_mesh_release(&raw);
     }
 }
 END_TEST
@@ -360,67 +360,67 @@ START_TEST(off_polygons_fan)
                                "4 0 1 2 3\n"
                                "5 4 0 1 2 3\n";
     static const uint32_t tri[15] = {0, 1, 2, 0, 2, 3, 4, 0, 1, 4, 1, 2, 4, 2, 3};
-    phks_raw_mesh raw;
-    ck_assert_int_eq(READ(phks_read_off, text, &raw), PHKS_OK);
+    phks__raw_mesh raw;
+    ck_assert_int_eq(READ(phks__read_off, text, &raw), PHKS_OK);
     ck_assert_uint_eq(raw.vertex_count, 5);
     expect_vertex(&raw, 4, -1, 0.5, 0.1);
     expect_triangles(&raw, tri, 5);
-    phks_raw_mesh_release(&raw);
+    phks__raw_mesh_release(&raw);
 }
 END_TEST
 
 START_TEST(off_errors)
 {
-    EXPECT_FAIL(phks_read_off, "", PHKS_ERROR_TRUNCATED, "line 1");
-    EXPECT_FAIL(phks_read_off, "PLY\n", PHKS_ERROR_PARSE, "line 1");
-    EXPECT_FAIL(phks_read_off, "# c\n4OFF\n1 1 0\n0 0 0 1\n", PHKS_ERROR_PARSE,
+    EXPECT_FAIL(phks__read_off, "", PHKS_ERROR_TRUNCATED, "line 1");
+    EXPECT_FAIL(phks__read_off, "PLY\n", PHKS_ERROR_PARSE, "line 1");
+    EXPECT_FAIL(phks__read_off, "# c\n4OFF\n1 1 0\n0 0 0 1\n", PHKS_ERROR_PARSE,
                 "line 2");
-    EXPECT_FAIL(phks_read_off, "OFF BINARY\n", PHKS_ERROR_PARSE, "line 1");
-    EXPECT_FAIL(phks_read_off, "OFF\n-4 4 0\n", PHKS_ERROR_PARSE, "line 2");
-    EXPECT_FAIL(phks_read_off, "OFF\n4 x 0\n", PHKS_ERROR_PARSE, "line 2");
-    EXPECT_FAIL(phks_read_off, "OFF\n4 4 x\n", PHKS_ERROR_PARSE, "line 2");
-    EXPECT_FAIL(phks_read_off, "OFF\n4\n", PHKS_ERROR_TRUNCATED, "line 3");
+    EXPECT_FAIL(phks__read_off, "OFF BINARY\n", PHKS_ERROR_PARSE, "line 1");
+    EXPECT_FAIL(phks__read_off, "OFF\n-4 4 0\n", PHKS_ERROR_PARSE, "line 2");
+    EXPECT_FAIL(phks__read_off, "OFF\n4 x 0\n", PHKS_ERROR_PARSE, "line 2");
+    EXPECT_FAIL(phks__read_off, "OFF\n4 4 x\n", PHKS_ERROR_PARSE, "line 2");
+    EXPECT_FAIL(phks__read_off, "OFF\n4\n", PHKS_ERROR_TRUNCATED, "line 3");
     /* counts the data cannot hold, refused before any allocation */
-    EXPECT_FAIL(phks_read_off, "OFF\n1000000000 1 0\n0 0 0\n", PHKS_ERROR_TOO_LARGE,
+    EXPECT_FAIL(phks__read_off, "OFF\n1000000000 1 0\n0 0 0\n", PHKS_ERROR_TOO_LARGE,
                 "line 2");
-    EXPECT_FAIL(phks_read_off, "OFF\n4294967295 1 0\n", PHKS_ERROR_TOO_LARGE,
+    EXPECT_FAIL(phks__read_off, "OFF\n4294967295 1 0\n", PHKS_ERROR_TOO_LARGE,
                 "line 2");
-    EXPECT_FAIL(phks_read_off, "OFF\n99999999999999999999 1 0\n", PHKS_ERROR_TOO_LARGE,
+    EXPECT_FAIL(phks__read_off, "OFF\n99999999999999999999 1 0\n", PHKS_ERROR_TOO_LARGE,
                 "line 2");
-    EXPECT_FAIL(phks_read_off, "OFF\n3 0 0\n0 0 0\n1 0 0\n0 1 0\n",
+    EXPECT_FAIL(phks__read_off, "OFF\n3 0 0\n0 0 0\n1 0 0\n0 1 0\n",
                 PHKS_ERROR_NO_TRIANGLES, "line 2");
     /* vertices */
-    EXPECT_FAIL(phks_read_off, "OFF\n3 1 0\n0 0 0\nnan 0 0\n0 1 0\n3 0 1 2\n",
+    EXPECT_FAIL(phks__read_off, "OFF\n3 1 0\n0 0 0\nnan 0 0\n0 1 0\n3 0 1 2\n",
                 PHKS_ERROR_NON_FINITE, "line 4");
-    EXPECT_FAIL(phks_read_off, "OFF\n3 1 0\n0 0 0\n1 -inf 0\n0 1 0\n3 0 1 2\n",
+    EXPECT_FAIL(phks__read_off, "OFF\n3 1 0\n0 0 0\n1 -inf 0\n0 1 0\n3 0 1 2\n",
                 PHKS_ERROR_NON_FINITE, "line 4");
-    EXPECT_FAIL(phks_read_off, "OFF\n3 1 0\n0 0 0\n1 0 1e999\n0 1 0\n3 0 1 2\n",
+    EXPECT_FAIL(phks__read_off, "OFF\n3 1 0\n0 0 0\n1 0 1e999\n0 1 0\n3 0 1 2\n",
                 PHKS_ERROR_NON_FINITE, "line 4");
-    EXPECT_FAIL(phks_read_off, "OFF\n3 1 0\n0 0 0\n1 0 1.#INF\n0 1 0\n3 0 1 2\n",
+    EXPECT_FAIL(phks__read_off, "OFF\n3 1 0\n0 0 0\n1 0 1.#INF\n0 1 0\n3 0 1 2\n",
                 PHKS_ERROR_NON_FINITE, "line 4");
-    EXPECT_FAIL(phks_read_off, "OFF\n3 1 0\n0 0 0\n1 0\n0 1 0\n3 0 1 2\n# padding\n",
+    EXPECT_FAIL(phks__read_off, "OFF\n3 1 0\n0 0 0\n1 0\n0 1 0\n3 0 1 2\n# padding\n",
                 PHKS_ERROR_PARSE, "line 4");
-    EXPECT_FAIL(phks_read_off, "OFF\n3 1 0\n0 0 0\n1 x 0\n0 1 0\n3 0 1 2\n",
+    EXPECT_FAIL(phks__read_off, "OFF\n3 1 0\n0 0 0\n1 x 0\n0 1 0\n3 0 1 2\n",
                 PHKS_ERROR_PARSE, "line 4");
-    EXPECT_FAIL(phks_read_off, "OFF\n3 1 0\n0 0 0\n1 0.5.5 0\n0 1 0\n3 0 1 2\n",
+    EXPECT_FAIL(phks__read_off, "OFF\n3 1 0\n0 0 0\n1 0.5.5 0\n0 1 0\n3 0 1 2\n",
                 PHKS_ERROR_PARSE, "line 4");
-    EXPECT_FAIL(phks_read_off,
+    EXPECT_FAIL(phks__read_off,
                 "OFF\n3 1 0\n0.000000 0.000000 0.000000\n"
                 "1.000000 0.000000 0.000000\n",
                 PHKS_ERROR_TRUNCATED, "line 5");
     /* faces */
-    EXPECT_FAIL(phks_read_off, "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n",
+    EXPECT_FAIL(phks__read_off, "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n",
                 PHKS_ERROR_INDEX_OUT_OF_RANGE, "line 6");
-    EXPECT_FAIL(phks_read_off, "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 -1 2\n",
+    EXPECT_FAIL(phks__read_off, "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 -1 2\n",
                 PHKS_ERROR_INDEX_OUT_OF_RANGE, "line 6");
-    EXPECT_FAIL(phks_read_off, "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n2 0 1\n# padding\n",
+    EXPECT_FAIL(phks__read_off, "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n2 0 1\n# padding\n",
                 PHKS_ERROR_PARSE, "line 6");
-    EXPECT_FAIL(phks_read_off, "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1\n# padding\n",
+    EXPECT_FAIL(phks__read_off, "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1\n# padding\n",
                 PHKS_ERROR_PARSE, "line 6");
-    EXPECT_FAIL(phks_read_off,
+    EXPECT_FAIL(phks__read_off,
                 "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n1000000000 0 1 2\n",
                 PHKS_ERROR_PARSE, "line 6");
-    EXPECT_FAIL(phks_read_off,
+    EXPECT_FAIL(phks__read_off,
                 "OFF\n3 2 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n# padding\n",
                 PHKS_ERROR_TRUNCATED, "line 8");
 }
@@ -430,10 +430,10 @@ END_TEST
 
 START_TEST(obj_tetrahedron)
 {
-    phks_raw_mesh raw;
-    ck_assert_int_eq(READ(phks_read_obj, tetra_obj, &raw), PHKS_OK);
+    phks__raw_mesh raw;
+    ck_assert_int_eq(READ(phks__read_obj, tetra_obj, &raw), PHKS_OK);
     expect_tetra(&raw);
-    phks_raw_mesh_release(&raw);
+    phks__raw_mesh_release(&raw);
 }
 END_TEST
 
@@ -456,10 +456,10 @@ START_TEST(obj_statements_ignored)
         "s off\n"
         "l 1 2\np 3\n"
         "f 2/2/ 3/ 4 # trailing comment\n";
-    phks_raw_mesh raw;
-    ck_assert_int_eq(READ(phks_read_obj, text, &raw), PHKS_OK);
+    phks__raw_mesh raw;
+    ck_assert_int_eq(READ(phks__read_obj, text, &raw), PHKS_OK);
     expect_tetra(&raw);
-    phks_raw_mesh_release(&raw);
+    phks__raw_mesh_release(&raw);
 }
 END_TEST
 
@@ -472,12 +472,12 @@ START_TEST(obj_polygons_negative_continuation)
                                "f 3 -2/1/1 1\n";
     static const uint32_t tri[18] = {0, 1, 2, 0, 2, 3, 4, 0, 1,
                                      4, 1, 2, 4, 2, 3, 2, 3, 0};
-    phks_raw_mesh raw;
-    ck_assert_int_eq(READ(phks_read_obj, text, &raw), PHKS_OK);
+    phks__raw_mesh raw;
+    ck_assert_int_eq(READ(phks__read_obj, text, &raw), PHKS_OK);
     ck_assert_uint_eq(raw.vertex_count, 5);
     expect_vertex(&raw, 4, -1, 0.5, 0.1);
     expect_triangles(&raw, tri, 6);
-    phks_raw_mesh_release(&raw);
+    phks__raw_mesh_release(&raw);
 }
 END_TEST
 
@@ -485,10 +485,10 @@ START_TEST(obj_faces_before_vertices)
 {
     static const char text[] = "f 1 2 3\nv 0 0 0\nv 1 0 0\nv 0 1 0\n";
     static const uint32_t tri[3] = {0, 1, 2};
-    phks_raw_mesh raw;
-    ck_assert_int_eq(READ(phks_read_obj, text, &raw), PHKS_OK);
+    phks__raw_mesh raw;
+    ck_assert_int_eq(READ(phks__read_obj, text, &raw), PHKS_OK);
     expect_triangles(&raw, tri, 1);
-    phks_raw_mesh_release(&raw);
+    phks__raw_mesh_release(&raw);
 }
 END_TEST
 
@@ -496,10 +496,10 @@ START_TEST(byte_order_mark_skipped)
 {
     static const char obj[] = "\xEF\xBB\xBFv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
     static const char off[] = "\xEF\xBB\xBFOFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
-    phks_raw_mesh raw;
-    ck_assert_int_eq(READ(phks_read_obj, obj, &raw), PHKS_OK);
+    phks__raw_mesh raw;
+    ck_assert_int_eq(READ(phks__read_obj, obj, &raw), PHKS_OK);
     ck_assert_uint_eq(raw.vertex_count, 3);
-    phks_raw_mesh_release(&raw);
+    phks__raw_mesh_release(&raw);
     phks_mesh *mesh;
     ck_assert_int_eq(phks_mesh_load_memory(off, sizeof off - 1, PHKS_FORMAT_AUTO,
                                            &mesh),
@@ -511,29 +511,29 @@ END_TEST
 
 START_TEST(obj_errors)
 {
-    EXPECT_FAIL(phks_read_obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n",
+    EXPECT_FAIL(phks__read_obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n",
                 PHKS_ERROR_INDEX_OUT_OF_RANGE, "line 4");
-    EXPECT_FAIL(phks_read_obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\n\nf 1 2 4\n",
+    EXPECT_FAIL(phks__read_obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\n\nf 1 2 4\n",
                 PHKS_ERROR_INDEX_OUT_OF_RANGE, "line 5");
-    EXPECT_FAIL(phks_read_obj, "v 0 0 0\nv 1 0 0\nf 1 2 -3\nv 0 1 0\n",
+    EXPECT_FAIL(phks__read_obj, "v 0 0 0\nv 1 0 0\nf 1 2 -3\nv 0 1 0\n",
                 PHKS_ERROR_INDEX_OUT_OF_RANGE, "line 3");
-    EXPECT_FAIL(phks_read_obj, "v 0 0 0\nv 1 0 0\nf 1 2 99999999999\n",
+    EXPECT_FAIL(phks__read_obj, "v 0 0 0\nv 1 0 0\nf 1 2 99999999999\n",
                 PHKS_ERROR_INDEX_OUT_OF_RANGE, "line 3");
-    EXPECT_FAIL(phks_read_obj, "v 0 0 0\nv 1 NaN 0\nv 0 1 0\nf 1 2 3\n",
+    EXPECT_FAIL(phks__read_obj, "v 0 0 0\nv 1 NaN 0\nv 0 1 0\nf 1 2 3\n",
                 PHKS_ERROR_NON_FINITE, "line 2");
-    EXPECT_FAIL(phks_read_obj, "v 0 0 0\nv 1 0\nv 0 1 0\nf 1 2 3\n",
+    EXPECT_FAIL(phks__read_obj, "v 0 0 0\nv 1 0\nv 0 1 0\nf 1 2 3\n",
                 PHKS_ERROR_PARSE, "line 2");
-    EXPECT_FAIL(phks_read_obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x\n",
+    EXPECT_FAIL(phks__read_obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x\n",
                 PHKS_ERROR_PARSE, "line 4");
-    EXPECT_FAIL(phks_read_obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/x 2 3\n",
+    EXPECT_FAIL(phks__read_obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/x 2 3\n",
                 PHKS_ERROR_PARSE, "line 4");
-    EXPECT_FAIL(phks_read_obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3/1/1/1\n",
+    EXPECT_FAIL(phks__read_obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3/1/1/1\n",
                 PHKS_ERROR_PARSE, "line 4");
-    EXPECT_FAIL(phks_read_obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\n",
+    EXPECT_FAIL(phks__read_obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\n",
                 PHKS_ERROR_PARSE, "line 4");
-    EXPECT_FAIL(phks_read_obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\n",
+    EXPECT_FAIL(phks__read_obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\n",
                 PHKS_ERROR_NO_TRIANGLES, "no faces");
-    EXPECT_FAIL(phks_read_obj, "", PHKS_ERROR_NO_TRIANGLES, "no faces");
+    EXPECT_FAIL(phks__read_obj, "", PHKS_ERROR_NO_TRIANGLES, "no faces");
 }
 END_TEST
 
@@ -690,7 +690,7 @@ static bytes build_ply(ply_mode mode)
     return b;
 }
 
-static void expect_built_ply(const phks_raw_mesh *raw)
+static void expect_built_ply(const phks__raw_mesh *raw)
 {
     static const uint32_t tri[18] = {0, 2, 1, 0, 1, 3, 0, 3, 2,
                                      1, 2, 3, 0, 1, 2, 0, 2, 3};
@@ -705,18 +705,18 @@ START_TEST(ply_every_encoding)
 {
     for (ply_mode mode = ASCII; mode <= BIG; mode++) {
         bytes b = build_ply(mode);
-        phks_raw_mesh raw;
-        phks_status st = run_reader(phks_read_ply, b.p, b.n, &raw);
+        phks__raw_mesh raw;
+        phks_status st = run_reader(phks__read_ply, b.p, b.n, &raw);
         ck_assert_msg(st == PHKS_OK, "mode %d: %s", (int)mode,
                       phks_last_error_message());
         expect_built_ply(&raw);
-        phks_raw_mesh_release(&raw);
+        phks__raw_mesh_release(&raw);
         /* every shorter prefix fails cleanly */
         for (size_t n = 0; n < b.n; n += 1 + n / 64) {
-            st = run_reader(phks_read_ply, b.p, n, &raw);
+            st = run_reader(phks__read_ply, b.p, n, &raw);
             if (st == PHKS_OK && mode != ASCII)
                 ck_abort_msg("prefix %zu read", n);
-            phks_raw_mesh_release(&raw);
+            phks__raw_mesh_release(&raw);
         }
         free(b.p);
     }
@@ -725,10 +725,10 @@ END_TEST
 
 START_TEST(ply_ascii_layouts)
 {
-    phks_raw_mesh raw;
-    ck_assert_int_eq(READ(phks_read_ply, tetra_ply, &raw), PHKS_OK);
+    phks__raw_mesh raw;
+    ck_assert_int_eq(READ(phks__read_ply, tetra_ply, &raw), PHKS_OK);
     expect_tetra(&raw);
-    phks_raw_mesh_release(&raw);
+    phks__raw_mesh_release(&raw);
 
     static const char faces_first[] =
         "ply\r\nformat ascii 1.0\r\ncomment faces come first\r\n"
@@ -737,9 +737,9 @@ START_TEST(ply_ascii_layouts)
         "property double x\r\nend_header\r\n"
         "3 0 2 1\r\n3 0 1 3\r\n3   0 3 2\r\n3 1 2 3\r\n"
         "0 0 0\r\n0 0 1.5\r\n0 2.25 0\r\n3 0\r\n0\r\n";
-    ck_assert_int_eq(READ(phks_read_ply, faces_first, &raw), PHKS_OK);
+    ck_assert_int_eq(READ(phks__read_ply, faces_first, &raw), PHKS_OK);
     expect_tetra(&raw);
-    phks_raw_mesh_release(&raw);
+    phks__raw_mesh_release(&raw);
 
     /* an element without properties and a large count costs nothing */
     static const char empty_element[] =
@@ -747,11 +747,11 @@ START_TEST(ply_ascii_layouts)
         "element vertex 3\nproperty uchar x\nproperty uchar y\nproperty uchar z\n"
         "element face 1\nproperty list uchar uchar vertex_indices\nend_header\n"
         "\0\0\0\1\0\0\0\1\0\3\0\1\2";
-    ck_assert_int_eq(READ(phks_read_ply, empty_element, &raw), PHKS_OK);
+    ck_assert_int_eq(READ(phks__read_ply, empty_element, &raw), PHKS_OK);
     ck_assert_uint_eq(raw.vertex_count, 3);
     ck_assert_uint_eq(raw.triangle_count, 1);
     expect_vertex(&raw, 2, 0, 1, 0);
-    phks_raw_mesh_release(&raw);
+    phks__raw_mesh_release(&raw);
 }
 END_TEST
 
@@ -778,13 +778,13 @@ START_TEST(ply_binary_errors)
 {
     size_t header = strlen(PLY_LE_HEADER);
     char needle[64];
-    phks_raw_mesh raw;
+    phks__raw_mesh raw;
 
     bytes b = build_small_binary(-1, 0);
-    ck_assert_int_eq(run_reader(phks_read_ply, b.p, b.n, &raw), PHKS_OK);
-    phks_raw_mesh_release(&raw);
+    ck_assert_int_eq(run_reader(phks__read_ply, b.p, b.n, &raw), PHKS_OK);
+    phks__raw_mesh_release(&raw);
     /* cut: the header's counts no longer fit */
-    expect_fail_n(phks_read_ply, b.p, b.n - 2, PHKS_ERROR_TOO_LARGE, "line 7");
+    expect_fail_n(phks__read_ply, b.p, b.n - 2, PHKS_ERROR_TOO_LARGE, "line 7");
     free(b.p);
     /* cut inside a quad's index list, which the counts do not foresee */
     static const char quad_cut[] =
@@ -792,20 +792,20 @@ START_TEST(ply_binary_errors)
         "property uchar x\nproperty uchar y\nproperty uchar z\n"
         "element face 1\nproperty list uchar uchar vertex_indices\nend_header\n"
         "\0\0\0\1\0\0\1\1\0\0\1\0\4\0\1\2";
-    EXPECT_FAIL(phks_read_ply, quad_cut, PHKS_ERROR_TRUNCATED, "byte offset");
+    EXPECT_FAIL(phks__read_ply, quad_cut, PHKS_ERROR_TRUNCATED, "byte offset");
 
     b = build_small_binary(4, 0); /* y of vertex 1 */
     snprintf(needle, sizeof needle, "byte offset %zu", header + 16);
-    expect_fail_n(phks_read_ply, b.p, b.n, PHKS_ERROR_NON_FINITE, needle);
+    expect_fail_n(phks__read_ply, b.p, b.n, PHKS_ERROR_NON_FINITE, needle);
     free(b.p);
 
     b = build_small_binary(-1, 3);
     snprintf(needle, sizeof needle, "byte offset %zu", header + 36 + 1 + 8);
-    expect_fail_n(phks_read_ply, b.p, b.n, PHKS_ERROR_INDEX_OUT_OF_RANGE, needle);
+    expect_fail_n(phks__read_ply, b.p, b.n, PHKS_ERROR_INDEX_OUT_OF_RANGE, needle);
     free(b.p);
 
     b = build_small_binary(-1, -1); /* index 0xffffffff read as int: -1 */
-    expect_fail_n(phks_read_ply, b.p, b.n, PHKS_ERROR_INDEX_OUT_OF_RANGE, needle);
+    expect_fail_n(phks__read_ply, b.p, b.n, PHKS_ERROR_INDEX_OUT_OF_RANGE, needle);
     free(b.p);
 
     /* a count the data cannot hold, refused before allocating */
@@ -814,73 +814,73 @@ START_TEST(ply_binary_errors)
         "property float x\nproperty float y\nproperty float z\n"
         "element face 1\nproperty list uchar int vertex_indices\nend_header\n"
         "0123456789";
-    EXPECT_FAIL(phks_read_ply, huge, PHKS_ERROR_TOO_LARGE, "line 3");
+    EXPECT_FAIL(phks__read_ply, huge, PHKS_ERROR_TOO_LARGE, "line 3");
     static const char huge_list[] =
         "ply\nformat binary_big_endian 1.0\nelement vertex 3\n"
         "property uchar x\nproperty uchar y\nproperty uchar z\n"
         "element face 1\nproperty list uint int vertex_indices\nend_header\n"
         "\0\0\0\1\0\0\0\1\0\xff\xff\xff\xff\0\0\0\0\0\0\0\0\0\0\0\0\0\0\0\0";
-    EXPECT_FAIL(phks_read_ply, huge_list, PHKS_ERROR_TRUNCATED, "byte offset");
+    EXPECT_FAIL(phks__read_ply, huge_list, PHKS_ERROR_TRUNCATED, "byte offset");
     static const char negative_list[] =
         "ply\nformat binary_big_endian 1.0\nelement vertex 3\n"
         "property uchar x\nproperty uchar y\nproperty uchar z\n"
         "element face 1\nproperty list int int vertex_indices\nend_header\n"
         "\0\0\0\1\0\0\0\1\0\xff\xff\xff\xff\0\0\0\0\0\0\0\0\0\0\0\0\0\0\0\0";
-    EXPECT_FAIL(phks_read_ply, negative_list, PHKS_ERROR_PARSE, "byte offset");
+    EXPECT_FAIL(phks__read_ply, negative_list, PHKS_ERROR_PARSE, "byte offset");
 }
 END_TEST
 
 START_TEST(ply_header_errors)
 {
-    EXPECT_FAIL(phks_read_ply, "plx\n", PHKS_ERROR_PARSE, "line 1");
-    EXPECT_FAIL(phks_read_ply, "ply\nformat ascii 1.0\nelement vertex 3\n",
+    EXPECT_FAIL(phks__read_ply, "plx\n", PHKS_ERROR_PARSE, "line 1");
+    EXPECT_FAIL(phks__read_ply, "ply\nformat ascii 1.0\nelement vertex 3\n",
                 PHKS_ERROR_TRUNCATED, "line 4");
-    EXPECT_FAIL(phks_read_ply, "ply\nformat ebcdic 1.0\nend_header\n",
+    EXPECT_FAIL(phks__read_ply, "ply\nformat ebcdic 1.0\nend_header\n",
                 PHKS_ERROR_PARSE, "line 2");
-    EXPECT_FAIL(phks_read_ply, "ply\nformat ascii 2.0\nend_header\n",
+    EXPECT_FAIL(phks__read_ply, "ply\nformat ascii 2.0\nend_header\n",
                 PHKS_ERROR_PARSE, "line 2");
-    EXPECT_FAIL(phks_read_ply, "ply\nformat ascii 1.0\nproperty float x\n",
+    EXPECT_FAIL(phks__read_ply, "ply\nformat ascii 1.0\nproperty float x\n",
                 PHKS_ERROR_PARSE, "line 3");
-    EXPECT_FAIL(phks_read_ply,
+    EXPECT_FAIL(phks__read_ply,
                 "ply\nformat ascii 1.0\nelement vertex 1\nproperty float128 x\n",
                 PHKS_ERROR_PARSE, "line 4");
-    EXPECT_FAIL(phks_read_ply,
+    EXPECT_FAIL(phks__read_ply,
                 "ply\nformat ascii 1.0\nelement vertex 1\n"
                 "property list float int x\n",
                 PHKS_ERROR_PARSE, "line 4");
-    EXPECT_FAIL(phks_read_ply,
+    EXPECT_FAIL(phks__read_ply,
                 "ply\nformat ascii 1.0\nelement vertex -1\n", PHKS_ERROR_PARSE,
                 "line 3");
-    EXPECT_FAIL(phks_read_ply,
+    EXPECT_FAIL(phks__read_ply,
                 "ply\nformat ascii 1.0\nelement vertex 4294967295\n",
                 PHKS_ERROR_TOO_LARGE, "line 3");
-    EXPECT_FAIL(phks_read_ply,
+    EXPECT_FAIL(phks__read_ply,
                 "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n"
                 "property float y\nelement face 0\n"
                 "property list uchar int vertex_indices\nend_header\n0 0\n",
                 PHKS_ERROR_PARSE, "line 3");
-    EXPECT_FAIL(phks_read_ply,
+    EXPECT_FAIL(phks__read_ply,
                 "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n"
                 "property float y\nproperty float z\nelement face 1\n"
                 "property list uchar float vertex_indices\nend_header\n",
                 PHKS_ERROR_PARSE, "line 8");
-    EXPECT_FAIL(phks_read_ply,
+    EXPECT_FAIL(phks__read_ply,
                 "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n"
                 "property float y\nproperty float z\nelement face 1\n"
                 "property int vertex_indices\nend_header\n",
                 PHKS_ERROR_PARSE, "line 8");
-    EXPECT_FAIL(phks_read_ply,
+    EXPECT_FAIL(phks__read_ply,
                 "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n"
                 "property float y\nproperty float z\nelement face 1\n"
                 "property uchar flags\nend_header\n",
                 PHKS_ERROR_PARSE, "line 7");
-    EXPECT_FAIL(phks_read_ply,
+    EXPECT_FAIL(phks__read_ply,
                 "ply\nelement vertex 1\nproperty float x\nend_header\n",
                 PHKS_ERROR_PARSE, "line 4");
-    EXPECT_FAIL(phks_read_ply,
+    EXPECT_FAIL(phks__read_ply,
                 "ply\nformat ascii 1.0\nbogus line\nend_header\n",
                 PHKS_ERROR_PARSE, "line 3");
-    EXPECT_FAIL(phks_read_ply,
+    EXPECT_FAIL(phks__read_ply,
                 "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"
                 "property float y\nproperty float z\nend_header\n"
                 "0 0 0\n1 0 0\n0 1 0\n",
@@ -895,17 +895,17 @@ END_TEST
 
 START_TEST(ply_ascii_data_errors)
 {
-    EXPECT_FAIL(phks_read_ply, PLY_ASCII_HEADER "0 0 0\n1 nan 0\n0 1 0\n3 0 1 2\n",
+    EXPECT_FAIL(phks__read_ply, PLY_ASCII_HEADER "0 0 0\n1 nan 0\n0 1 0\n3 0 1 2\n",
                 PHKS_ERROR_NON_FINITE, "line 11");
-    EXPECT_FAIL(phks_read_ply, PLY_ASCII_HEADER "0 0 0\n1 zero 0\n0 1 0\n3 0 1 2\n",
+    EXPECT_FAIL(phks__read_ply, PLY_ASCII_HEADER "0 0 0\n1 zero 0\n0 1 0\n3 0 1 2\n",
                 PHKS_ERROR_PARSE, "line 11");
-    EXPECT_FAIL(phks_read_ply, PLY_ASCII_HEADER "0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n",
+    EXPECT_FAIL(phks__read_ply, PLY_ASCII_HEADER "0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n",
                 PHKS_ERROR_INDEX_OUT_OF_RANGE, "line 13");
-    EXPECT_FAIL(phks_read_ply, PLY_ASCII_HEADER "0 0 0\n1 0 0\n0 1 0\n-3 0 1 2\n",
+    EXPECT_FAIL(phks__read_ply, PLY_ASCII_HEADER "0 0 0\n1 0 0\n0 1 0\n-3 0 1 2\n",
                 PHKS_ERROR_PARSE, "line 13");
-    EXPECT_FAIL(phks_read_ply, PLY_ASCII_HEADER "0 0 0\n1 0 0\n0 1 0\n2 0 1    ",
+    EXPECT_FAIL(phks__read_ply, PLY_ASCII_HEADER "0 0 0\n1 0 0\n0 1 0\n2 0 1    ",
                 PHKS_ERROR_PARSE, "line 13");
-    EXPECT_FAIL(phks_read_ply, PLY_ASCII_HEADER "0 0 0\n1 0 0\n0 1 0\n3 0 1    ",
+    EXPECT_FAIL(phks__read_ply, PLY_ASCII_HEADER "0 0 0\n1 0 0\n0 1 0\n3 0 1    ",
                 PHKS_ERROR_TRUNCATED, "line 13");
 }
 END_TEST
@@ -936,10 +936,10 @@ static const float two_corners[6][3] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0},
 
 START_TEST(stl_ascii)
 {
-    phks_raw_mesh raw;
-    ck_assert_int_eq(READ(phks_read_stl, two_stl, &raw), PHKS_OK);
+    phks__raw_mesh raw;
+    ck_assert_int_eq(READ(phks__read_stl, two_stl, &raw), PHKS_OK);
     expect_two_triangles(&raw);
-    phks_raw_mesh_release(&raw);
+    phks__raw_mesh_release(&raw);
 
     /* shouting, two solids, a quad loop, -0 welded to 0, no final endsolid */
     static const char loud[] =
@@ -951,13 +951,13 @@ START_TEST(stl_ascii)
         "endloop\nendfacet\n";
     static const uint32_t tri[9] = {0, 1, 2, 1, 3, 4, 1, 4, 2};
     static const uint32_t origin[5] = {0, 1, 2, 4, 5};
-    ck_assert_int_eq(READ(phks_read_stl, loud, &raw), PHKS_OK);
+    ck_assert_int_eq(READ(phks__read_stl, loud, &raw), PHKS_OK);
     ck_assert_uint_eq(raw.vertex_count, 5);
     expect_triangles(&raw, tri, 3);
     for (size_t v = 0; v < 5; v++)
         ck_assert_uint_eq(raw.vertex_origin[v], origin[v]);
     ck_assert(!signbit(raw.xyz[0]));
-    phks_raw_mesh_release(&raw);
+    phks__raw_mesh_release(&raw);
 }
 END_TEST
 
@@ -966,11 +966,11 @@ START_TEST(stl_binary)
     const char *headers[] = {"binary two triangles", "solid but binary", ""};
     for (int i = 0; i < 3; i++) {
         bytes b = build_binary_stl(headers[i], two_corners, 2);
-        phks_raw_mesh raw;
-        phks_status st = run_reader(phks_read_stl, b.p, b.n, &raw);
+        phks__raw_mesh raw;
+        phks_status st = run_reader(phks__read_stl, b.p, b.n, &raw);
         ck_assert_msg(st == PHKS_OK, "%s", phks_last_error_message());
         expect_two_triangles(&raw);
-        phks_raw_mesh_release(&raw);
+        phks__raw_mesh_release(&raw);
         free(b.p);
     }
 }
@@ -994,8 +994,8 @@ START_TEST(stl_welding_many)
             c += 6;
         }
     bytes b = build_binary_stl("grid", (const float(*)[3])corners, facets);
-    phks_raw_mesh raw;
-    ck_assert_int_eq(run_reader(phks_read_stl, b.p, b.n, &raw), PHKS_OK);
+    phks__raw_mesh raw;
+    ck_assert_int_eq(run_reader(phks__read_stl, b.p, b.n, &raw), PHKS_OK);
     ck_assert_uint_eq(raw.vertex_count, (size_t)(n + 1) * (n + 1));
     ck_assert_uint_eq(raw.triangle_count, facets);
     size_t wrong = 0; /* counted, as Check is slow at many assertions */
@@ -1012,7 +1012,7 @@ START_TEST(stl_welding_many)
                  p[2] != corners[k][2];
     }
     ck_assert_uint_eq(wrong, 0);
-    phks_raw_mesh_release(&raw);
+    phks__raw_mesh_release(&raw);
     free(b.p);
     free(corners);
 }
@@ -1023,12 +1023,12 @@ START_TEST(stl_errors)
     char needle[64];
     bytes b = build_binary_stl("binary", two_corners, 2);
     b.p[80] = 10; /* declares 10 facets, holds 2 */
-    expect_fail_n(phks_read_stl, b.p, b.n, PHKS_ERROR_TOO_LARGE, "byte offset 80");
+    expect_fail_n(phks__read_stl, b.p, b.n, PHKS_ERROR_TOO_LARGE, "byte offset 80");
     b.p[80] = 0xff, b.p[81] = 0xff, b.p[82] = 0xff, b.p[83] = 0xff;
-    expect_fail_n(phks_read_stl, b.p, b.n, PHKS_ERROR_TOO_LARGE, "byte offset 80");
+    expect_fail_n(phks__read_stl, b.p, b.n, PHKS_ERROR_TOO_LARGE, "byte offset 80");
     b.p[80] = 0, b.p[81] = 0, b.p[82] = 0, b.p[83] = 0;
-    expect_fail_n(phks_read_stl, b.p, 84, PHKS_ERROR_NO_TRIANGLES, "byte offset 80");
-    expect_fail_n(phks_read_stl, b.p, 60, PHKS_ERROR_TRUNCATED, "byte offset 60");
+    expect_fail_n(phks__read_stl, b.p, 84, PHKS_ERROR_NO_TRIANGLES, "byte offset 80");
+    expect_fail_n(phks__read_stl, b.p, 60, PHKS_ERROR_TRUNCATED, "byte offset 60");
     free(b.p);
 
     float corners[6][3];
@@ -1036,31 +1036,31 @@ START_TEST(stl_errors)
     corners[4][2] = INFINITY; /* facet 1, corner 1, z */
     b = build_binary_stl("binary", (const float(*)[3])corners, 2);
     snprintf(needle, sizeof needle, "byte offset %d", 84 + 50 + 12 + 12 + 8);
-    expect_fail_n(phks_read_stl, b.p, b.n, PHKS_ERROR_NON_FINITE, needle);
+    expect_fail_n(phks__read_stl, b.p, b.n, PHKS_ERROR_NON_FINITE, needle);
     free(b.p);
 
-    EXPECT_FAIL(phks_read_stl,
+    EXPECT_FAIL(phks__read_stl,
                 "solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\n"
                 "vertex 1 nan 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid\n",
                 PHKS_ERROR_NON_FINITE, "line 5");
-    EXPECT_FAIL(phks_read_stl,
+    EXPECT_FAIL(phks__read_stl,
                 "solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\n"
                 "vertex 1 0 zz\nvertex 0 1 0\nendloop\nendfacet\nendsolid\n",
                 PHKS_ERROR_PARSE, "line 5");
-    EXPECT_FAIL(phks_read_stl,
+    EXPECT_FAIL(phks__read_stl,
                 "solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\n"
                 "vertex 1 0 0\nendloop\nendfacet\nendsolid\n",
                 PHKS_ERROR_PARSE, "line 6");
-    EXPECT_FAIL(phks_read_stl,
+    EXPECT_FAIL(phks__read_stl,
                 "solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\n"
                 "vertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\nfacet normal\n"
                 "outer loop\nvertex 0 0 0\n",
                 PHKS_ERROR_TRUNCATED, "line 12");
-    EXPECT_FAIL(phks_read_stl,
+    EXPECT_FAIL(phks__read_stl,
                 "solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\n"
                 "vertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\nfoo\n",
                 PHKS_ERROR_PARSE, "line 9");
-    EXPECT_FAIL(phks_read_stl, "solid empty\nendsolid empty\n",
+    EXPECT_FAIL(phks__read_stl, "solid empty\nendsolid empty\n",
                 PHKS_ERROR_NO_TRIANGLES, "no facets");
 }
 END_TEST
@@ -1433,12 +1433,12 @@ static unsigned char *read_maybe_gzip(const char *path, size_t *n)
 static reader_fn reader_for(const char *name)
 {
     if (strstr(name, ".off"))
-        return phks_read_off;
+        return phks__read_off;
     if (strstr(name, ".obj"))
-        return phks_read_obj;
+        return phks__read_obj;
     if (strstr(name, ".ply"))
-        return phks_read_ply;
-    return phks_read_stl;
+        return phks__read_ply;
+    return phks__read_stl;
 }
 
 /* Every mesh in MANIFEST.tsv (but the 1.6M-vertex one, kept for timing)
@@ -1465,13 +1465,13 @@ START_TEST(shared_meshes)
         char *path = shared_mesh_path(name);
         size_t n;
         unsigned char *data = read_maybe_gzip(path, &n);
-        phks_raw_mesh raw;
+        phks__raw_mesh raw;
         phks_status st = run_reader(reader_for(name), data, n, &raw);
         ck_assert_msg(st == PHKS_OK, "%s: %s", name, phks_last_error_message());
         ck_assert_msg(raw.vertex_count == vertices && raw.triangle_count == faces,
                       "%s: %zu vertices, %zu triangles; manifest %zu, %zu", name,
                       raw.vertex_count, raw.triangle_count, vertices, faces);
-        phks_raw_mesh_release(&raw);
+        phks__raw_mesh_release(&raw);
         free(data);
 
         if (strncmp(name, "scans/", 6) == 0 || strcmp(name, "psb/1.off.gz") == 0) {

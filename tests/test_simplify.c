@@ -127,7 +127,7 @@ START_TEST(kernel_numerics_match_libm)
 {
     double worst = 0;
     for (double x = 0; x <= 700; x += 0.00173)
-        worst = fmax(worst, fabs(phks_exp_neg(x) - exp(-x)) / exp(-x));
+        worst = fmax(worst, fabs(phks__exp_neg(x) - exp(-x)) / exp(-x));
     ck_assert_double_lt(worst, 1e-10);
 
     enum { N = 1000 };
@@ -141,7 +141,7 @@ START_TEST(kernel_numerics_match_libm)
     const double p[3] = {0.15, 0.1, 0.2}, h = 2e-4, r = 0.099;
     /* Every length, so that vector tails are covered. */
     for (size_t count = 0; count <= 37; count++) {
-        phks_kernel_row(x, y, z, count, p, r * r, 1 / (4 * h), e, d2);
+        phks__kernel_row(x, y, z, count, p, r * r, 1 / (4 * h), e, d2);
         for (size_t j = 0; j < count; j++) {
             double dd = (x[j] - p[0]) * (x[j] - p[0]) + (y[j] - p[1]) * (y[j] - p[1]) +
                         (z[j] - p[2]) * (z[j] - p[2]);
@@ -150,7 +150,7 @@ START_TEST(kernel_numerics_match_libm)
             REQUIRE(fabs(e[j] - want) <= 1e-10 * want);
         }
     }
-    phks_kernel_row(x, y, z, N, p, r * r, 1 / (4 * h), e, d2);
+    phks__kernel_row(x, y, z, N, p, r * r, 1 / (4 * h), e, d2);
     for (int j = 0; j < N; j++) {
         double want = d2[j] < r * r ? exp(-d2[j] / (4 * h)) : 0;
         REQUIRE(fabs(e[j] - want) <= 1e-10 * want);
@@ -171,13 +171,13 @@ START_TEST(point_operator_gains_scale_the_kernel)
         phks_options_init(&o);
         o.operator_kind = kind;
         double scale;
-        ck_assert_int_eq(phks_unit_box_scale(m, PHKS_BOX_PRINCIPAL, &scale), PHKS_OK);
+        ck_assert_int_eq(phks__unit_box_scale(m, PHKS_BOX_PRINCIPAL, &scale), PHKS_OK);
         double *area = malloc(n * sizeof *area), *ones = malloc(n * sizeof *ones);
         double *gain = malloc(n * sizeof *gain);
         ck_assert_ptr_nonnull(area);
         ck_assert_ptr_nonnull(ones);
         ck_assert_ptr_nonnull(gain);
-        phks_vertex_areas(m, scale, area);
+        phks__vertex_areas(m, scale, area);
         uint64_t state = 7;
         for (size_t i = 0; i < n; i++) {
             ones[i] = 1;
@@ -185,12 +185,12 @@ START_TEST(point_operator_gains_scale_the_kernel)
             gain[i] = 0.5 + (double)(state >> 11) / 9007199254740992.0;
         }
         const double *xyz = phks_mesh_vertices(m);
-        phks_operator_matrix a, b, c;
-        ck_assert_int_eq(phks_point_operator_build(xyz, n, scale, area, NULL, &o,
+        phks__operator_matrix a, b, c;
+        ck_assert_int_eq(phks__point_operator_build(xyz, n, scale, area, NULL, &o,
                                                    0, 1, &a), PHKS_OK);
-        ck_assert_int_eq(phks_point_operator_build(xyz, n, scale, area, ones, &o,
+        ck_assert_int_eq(phks__point_operator_build(xyz, n, scale, area, ones, &o,
                                                    0, 1, &b), PHKS_OK);
-        ck_assert_int_eq(phks_point_operator_build(xyz, n, scale, area, gain, &o,
+        ck_assert_int_eq(phks__point_operator_build(xyz, n, scale, area, gain, &o,
                                                    0, 1, &c), PHKS_OK);
         size_t nnz = a.row_start[n];
         ck_assert_int_eq(memcmp(b.row_start, a.row_start,
@@ -215,9 +215,9 @@ START_TEST(point_operator_gains_scale_the_kernel)
                 }
             ck_assert_uint_gt(off, n);
         }
-        phks_operator_release(&a);
-        phks_operator_release(&b);
-        phks_operator_release(&c);
+        phks__operator_release(&a);
+        phks__operator_release(&b);
+        phks__operator_release(&c);
         free(area);
         free(ones);
         free(gain);
@@ -246,7 +246,7 @@ START_TEST(heat_diagonal_matches_dense)
     const double h = 2e-4, radii[2] = {1.0, 3 * sqrt(4 * h)};
     for (int ri = 0; ri < 2; ri++) {
         double r = radii[ri];
-        ck_assert_int_eq(phks_heat_diagonal(xyz, area, N, h, r, NULL, 0, 0, heat),
+        ck_assert_int_eq(phks__heat_diagonal(xyz, area, N, h, r, NULL, 0, 0, heat),
                          PHKS_OK);
         for (int i = 0; i < N; i++) {
             d[i] = 0;
@@ -280,15 +280,15 @@ START_TEST(samples_cover_the_mesh_and_carry_its_area)
     phks_options o;
     simp_options(&o, 1500);
     double scale;
-    ck_assert_int_eq(phks_unit_box_scale(m, PHKS_BOX_PRINCIPAL, &scale), PHKS_OK);
+    ck_assert_int_eq(phks__unit_box_scale(m, PHKS_BOX_PRINCIPAL, &scale), PHKS_OK);
     double *area = malloc(n * sizeof *area);
     ck_assert_ptr_nonnull(area);
-    phks_vertex_areas(m, scale, area);
+    phks__vertex_areas(m, scale, area);
     double total = 0;
     for (size_t v = 0; v < n; v++)
         total += area[v];
-    phks_samples s;
-    ck_assert_int_eq(phks_simplify(m, scale, area, &o, 0, 1, &s), PHKS_OK);
+    phks__samples s;
+    ck_assert_int_eq(phks__simplify(m, scale, area, &o, 0, 1, &s), PHKS_OK);
     ck_assert_uint_ge(s.count, 1425);
     ck_assert_uint_le(s.count, 1575);
     const double *xyz = phks_mesh_vertices(m);
@@ -325,7 +325,7 @@ START_TEST(samples_cover_the_mesh_and_carry_its_area)
         worst = fmax(worst, sqrt(best));
     }
     ck_assert_double_lt(worst, 3 * rho);
-    phks_samples_release(&s);
+    phks__samples_release(&s);
     free(area);
     phks_mesh_free(m);
 }
@@ -449,7 +449,7 @@ START_TEST(simplified_spectrum_exposes_samples)
     double t = 5 * o.tau;
     double *h = hks(s, t);
     for (size_t x = 0; x < n; x++) {
-        double one = phks_hks_at(s, t, x);
+        double one = phks__hks_at(s, t, x);
         REQUIRE_MSG(fabs(h[x] - one) <= 1e-5 * one, "vertex %zu: %g, %g", x, h[x], one);
     }
     const double *lambda = phks_spectrum_eigenvalues(s);

@@ -96,7 +96,7 @@ static phks_signature *synthetic(const phks_signature *like, size_t count,
                                  double scale, uint64_t *rng)
 {
     phks_signature *sig;
-    ck_assert_int_eq(phks_signature_alloc(count, like->length, &sig), PHKS_OK);
+    ck_assert_int_eq(phks__signature_alloc(count, like->length, &sig), PHKS_OK);
     sig->options = like->options;
     for (size_t i = 0; i < count; i++) {
         sig->vertex[i] = (uint32_t)i;
@@ -144,7 +144,7 @@ typedef struct worker {
     char first_failure[256];
 } worker;
 
-static void failed(worker *w, const char *fmt, ...) PHKS_PRINTF(2, 3);
+static void failed(worker *w, const char *fmt, ...) PHKS__PRINTF(2, 3);
 static void failed(worker *w, const char *fmt, ...)
 {
     if (w->failures++ == 0) {
@@ -351,7 +351,7 @@ static void logged_range(void *ctx, size_t begin, size_t end)
         log->visits[i]++;
     log->run[begin] = end - begin;
     if (begin == 0)
-        phks_parallel_for(TEAM_N, TEAM_THREADS, nested_range, log);
+        phks__parallel_for(TEAM_N, TEAM_THREADS, nested_range, log);
 }
 
 /* With a team entered, every loop covers each index exactly once, in runs
@@ -360,13 +360,13 @@ static void logged_range(void *ctx, size_t begin, size_t end)
  * same thread gives no team. */
 START_TEST(team_loops_cover_each_index_once)
 {
-    phks_team *team = phks_team_enter(TEAM_THREADS);
+    phks__team *team = phks__team_enter(TEAM_THREADS);
     ck_assert_ptr_nonnull(team);
-    ck_assert_ptr_null(phks_team_enter(TEAM_THREADS));
+    ck_assert_ptr_null(phks__team_enter(TEAM_THREADS));
     for (int round = 0; round < 50; round++) {
         static team_log log;
         memset(&log, 0, sizeof log);
-        phks_parallel_for(TEAM_N, TEAM_THREADS, logged_range, &log);
+        phks__parallel_for(TEAM_N, TEAM_THREADS, logged_range, &log);
         for (size_t i = 0; i < TEAM_N; i++) {
             ck_assert_int_eq(log.visits[i], 1);
             ck_assert_int_eq(log.nested[i], 1);
@@ -382,17 +382,17 @@ START_TEST(team_loops_cover_each_index_once)
         ck_assert_uint_gt(runs, TEAM_THREADS);
         /* fewer chunks than workers, and a loop of one */
         memset(&log, 0, sizeof log);
-        phks_parallel_for(2, TEAM_THREADS, nested_range, &log);
-        phks_parallel_for(1, TEAM_THREADS, nested_range, &log);
+        phks__parallel_for(2, TEAM_THREADS, nested_range, &log);
+        phks__parallel_for(1, TEAM_THREADS, nested_range, &log);
         ck_assert_int_eq(log.nested[0], 2);
         ck_assert_int_eq(log.nested[1], 1);
     }
-    phks_team_leave(team);
+    phks__team_leave(team);
     /* and a new team after the first has left */
-    team = phks_team_enter(2);
+    team = phks__team_enter(2);
     ck_assert_ptr_nonnull(team);
-    phks_team_leave(team);
-    phks_team_leave(NULL);
+    phks__team_leave(team);
+    phks__team_leave(NULL);
 }
 END_TEST
 

@@ -1,6 +1,6 @@
 /*
  * alloc.c - the allocator hook. Every allocation of the library goes
- * through phks_malloc and friends so that a host application can route
+ * through phks__malloc and friends so that a host application can route
  * memory to its own heap, and tests can fail the i-th allocation.
  */
 #include "core/core.h"
@@ -37,7 +37,7 @@ phks_status phks_set_allocator(const phks_allocator *allocator)
         return PHKS_OK;
     }
     if (!allocator->malloc_fn || !allocator->realloc_fn || !allocator->free_fn)
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "phks_set_allocator: all three functions must be set");
     current = *allocator;
     return PHKS_OK;
@@ -45,41 +45,41 @@ phks_status phks_set_allocator(const phks_allocator *allocator)
 
 /* A zero-byte request still returns a distinct pointer, as callers treat
  * NULL as failure. */
-void *phks_malloc(size_t size)
+void *phks__malloc(size_t size)
 {
     return current.malloc_fn(current.user, size ? size : 1);
 }
 
-void *phks_realloc(void *ptr, size_t size)
+void *phks__realloc(void *ptr, size_t size)
 {
     if (!ptr)
-        return phks_malloc(size);
+        return phks__malloc(size);
     return current.realloc_fn(current.user, ptr, size ? size : 1);
 }
 
-void phks_free(void *ptr)
+void phks__free(void *ptr)
 {
     if (ptr)
         current.free_fn(current.user, ptr);
 }
 
-void *phks_malloc_array(size_t count, size_t size)
+void *phks__malloc_array(size_t count, size_t size)
 {
     if (size && count > SIZE_MAX / size)
         return NULL;
-    return phks_malloc(count * size);
+    return phks__malloc(count * size);
 }
 
-void *phks_realloc_array(void *ptr, size_t count, size_t size)
+void *phks__realloc_array(void *ptr, size_t count, size_t size)
 {
     if (size && count > SIZE_MAX / size)
         return NULL;
-    return phks_realloc(ptr, count * size);
+    return phks__realloc(ptr, count * size);
 }
 
-void *phks_calloc(size_t count, size_t size)
+void *phks__calloc(size_t count, size_t size)
 {
-    void *p = phks_malloc_array(count, size);
+    void *p = phks__malloc_array(count, size);
     if (p)
         memset(p, 0, count * size);
     return p;

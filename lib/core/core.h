@@ -15,62 +15,62 @@
 #include <stdint.h>
 
 #if defined(__GNUC__) || defined(__clang__)
-#define PHKS_PRINTF(f, a) __attribute__((format(printf, f, a)))
+#define PHKS__PRINTF(f, a) __attribute__((format(printf, f, a)))
 #else
-#define PHKS_PRINTF(f, a)
+#define PHKS__PRINTF(f, a)
 #endif
 
-#define PHKS_PI 3.14159265358979323846
+#define PHKS__PI 3.14159265358979323846
 
 /* ---- allocation (alloc.c): every library allocation goes through here */
-void *phks_malloc(size_t size);
-void *phks_calloc(size_t count, size_t size); /* zeroed, overflow-checked */
-void *phks_realloc(void *ptr, size_t size);
-void phks_free(void *ptr);
+void *phks__malloc(size_t size);
+void *phks__calloc(size_t count, size_t size); /* zeroed, overflow-checked */
+void *phks__realloc(void *ptr, size_t size);
+void phks__free(void *ptr);
 /* count * size bytes, NULL on overflow or failure. */
-void *phks_malloc_array(size_t count, size_t size);
-void *phks_realloc_array(void *ptr, size_t count, size_t size);
+void *phks__malloc_array(size_t count, size_t size);
+void *phks__realloc_array(void *ptr, size_t count, size_t size);
 
 /* ---- errors (error.c) */
 /* Records a printf-style detail for phks_last_error_message() in the
  * calling thread and returns status, so a failure is one line:
- *     return phks_fail(PHKS_ERROR_PARSE, "line %zu: ...", line); */
-phks_status phks_fail(phks_status status, const char *fmt, ...)
-    PHKS_PRINTF(2, 3);
+ *     return phks__fail(PHKS_ERROR_PARSE, "line %zu: ...", line); */
+phks_status phks__fail(phks_status status, const char *fmt, ...)
+    PHKS__PRINTF(2, 3);
 /* The common case of a failed allocation. */
-phks_status phks_fail_oom(const char *what);
+phks_status phks__fail_oom(const char *what);
 /* Prefixes the current thread's message with "prefix: " (used to add a
  * file name to a reader's message). */
-void phks_error_prefix(const char *prefix);
+void phks__error_prefix(const char *prefix);
 
 /* ---- options (options.c) */
 /* Validates user options (NULL means defaults) into *out. Returns
  * PHKS_ERROR_INVALID_ARGUMENT with a message naming the bad field. */
-phks_status phks_options_resolve(const phks_options *user, phks_options *out);
+phks_status phks__options_resolve(const phks_options *user, phks_options *out);
 /* Reports progress; returns PHKS_ERROR_CANCELLED when the callback asks. */
-phks_status phks_progress(const phks_options *opt, phks_stage stage,
+phks_status phks__progress(const phks_options *opt, phks_stage stage,
                           double fraction);
 
 /* ---- threads (parallel.c) */
 /* Calls fn(ctx, begin, end) over [0, n) split into `threads` contiguous
  * chunks on worker threads (falls back to the calling thread alone). */
-typedef void (*phks_range_fn)(void *ctx, size_t begin, size_t end);
-void phks_parallel_for(size_t n, unsigned threads, phks_range_fn fn, void *ctx);
+typedef void (*phks__range_fn)(void *ctx, size_t begin, size_t end);
+void phks__parallel_for(size_t n, unsigned threads, phks__range_fn fn, void *ctx);
 /* Keeps threads - 1 workers for the loops this thread starts until
- * phks_team_leave (parallel.c says why). NULL, which leave accepts, when a
+ * phks__team_leave (parallel.c says why). NULL, which leave accepts, when a
  * team is entered on this thread already, threads <= 1, or nothing could
  * be started: the loops then create their threads as they go. */
-typedef struct phks_team phks_team;
-phks_team *phks_team_enter(unsigned threads);
-void phks_team_leave(phks_team *team);
+typedef struct phks__team phks__team;
+phks__team *phks__team_enter(unsigned threads);
+void phks__team_leave(phks__team *team);
 /* threads option resolved: 0 means the number of online CPUs. */
-unsigned phks_thread_count(const phks_options *opt);
+unsigned phks__thread_count(const phks_options *opt);
 /* Runs fn(ctx, begin, end) over [0, n) in `batches` consecutive batches,
- * each split over `threads` workers by phks_parallel_for (so the outputs
+ * each split over `threads` workers by phks__parallel_for (so the outputs
  * never depend on the thread count when fn writes disjoint entries), and
  * reports progress in `stage` from done to done + span before each batch:
  * a cancellation is noticed within one batch. opt may be NULL. */
-phks_status phks_run_batched(size_t n, unsigned threads, phks_range_fn fn,
+phks_status phks__run_batched(size_t n, unsigned threads, phks__range_fn fn,
                              void *ctx, const phks_options *opt,
                              phks_stage stage, double done, double span,
                              size_t batches);
@@ -79,9 +79,9 @@ phks_status phks_run_batched(size_t n, unsigned threads, phks_range_fn fn,
 /* Fills v with n numbers in [-0.5, 0.5) from a fixed generator started at
  * `state`: the solvers start from the same vectors on every run, so
  * results never depend on what ran before. */
-void phks_random_fill(double *v, size_t n, uint64_t state);
+void phks__random_fill(double *v, size_t n, uint64_t state);
 
 /* ---- checksum (crc32.c via zlib) */
-uint32_t phks_crc32(const void *data, size_t size);
+uint32_t phks__crc32(const void *data, size_t size);
 
 #endif /* PHKS_CORE_H */

@@ -5,7 +5,7 @@
 
 #include <zlib.h>
 
-uint32_t phks_crc32(const void *data, size_t size)
+uint32_t phks__crc32(const void *data, size_t size)
 {
     const unsigned char *p = data;
     uLong crc = crc32(0L, Z_NULL, 0);

@@ -43,7 +43,7 @@ const char *phks_last_error_message(void)
     return message;
 }
 
-phks_status phks_fail(phks_status status, const char *fmt, ...)
+phks_status phks__fail(phks_status status, const char *fmt, ...)
 {
     va_list ap;
     va_start(ap, fmt);
@@ -52,12 +52,12 @@ phks_status phks_fail(phks_status status, const char *fmt, ...)
     return status;
 }
 
-phks_status phks_fail_oom(const char *what)
+phks_status phks__fail_oom(const char *what)
 {
-    return phks_fail(PHKS_ERROR_OUT_OF_MEMORY, "out of memory: %s", what);
+    return phks__fail(PHKS_ERROR_OUT_OF_MEMORY, "out of memory: %s", what);
 }
 
-void phks_error_prefix(const char *prefix)
+void phks__error_prefix(const char *prefix)
 {
     /* Shift the old message right and put "prefix: " in front, cutting the
      * tail when the whole does not fit. */

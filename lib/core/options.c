@@ -13,7 +13,7 @@ static const double paper_scales[] = {5,   20,  40,  60,  100, 150, 200, 300,
 phks_status phks_options_init(phks_options *options)
 {
     if (!options)
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "phks_options_init: options is NULL");
     memset(options, 0, sizeof *options);
     options->version = PHKS_OPTIONS_VERSION;
@@ -46,85 +46,85 @@ static bool positive_finite(double x)
     return isfinite(x) && x > 0;
 }
 
-phks_status phks_options_resolve(const phks_options *user, phks_options *out)
+phks_status phks__options_resolve(const phks_options *user, phks_options *out)
 {
     if (!user)
         return phks_options_init(out);
     if (user->version != PHKS_OPTIONS_VERSION)
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "options: version %u is not %d; fill options with "
                          "phks_options_init() first",
                          user->version, PHKS_OPTIONS_VERSION);
     *out = *user;
     if (out->eigen_count < 1 || out->eigen_count > 100000)
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "options: eigen_count %u outside 1..100000",
                          out->eigen_count);
     if (!positive_finite(out->tau) || out->tau > 1)
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "options: tau %g outside (0, 1]", out->tau);
     /* Below 1 the kernel is cut where it still carries most of its weight;
      * above 8 the dropped weight is under e^-64 and only costs time. */
     if (!(out->cutoff >= 1 && out->cutoff <= 8))
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "options: cutoff %g outside [1, 8]", out->cutoff);
     if (out->feature_count < 1 || out->feature_count > 100000)
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "options: feature_count %u outside 1..100000",
                          out->feature_count);
     if (out->scale_count < 1 || out->scale_count > PHKS_MAX_SCALES)
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "options: scale_count %u outside 1..%d",
                          out->scale_count, PHKS_MAX_SCALES);
     for (uint32_t i = 0; i < out->scale_count; i++)
         if (!positive_finite(out->scales[i]))
-            return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+            return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                              "options: scales[%u] = %g is not a positive "
                              "number", i, out->scales[i]);
     if (!positive_finite(out->feature_scale))
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "options: feature_scale %g is not a positive number",
                          out->feature_scale);
     if (out->operator_kind != PHKS_OPERATOR_LITERAL &&
         out->operator_kind != PHKS_OPERATOR_RANDOM_WALK)
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "options: unknown operator_kind %d",
                          (int)out->operator_kind);
     if (out->box != PHKS_BOX_PRINCIPAL && out->box != PHKS_BOX_AXIS_ALIGNED)
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "options: unknown box %d", (int)out->box);
     if (out->solver < PHKS_SOLVER_AUTO || out->solver > PHKS_SOLVER_DENSE)
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "options: unknown solver %d", (int)out->solver);
     if (!(out->tolerance >= 1e-15 && out->tolerance <= 1e-2))
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "options: tolerance %g outside [1e-15, 1e-2]",
                          out->tolerance);
     if (!(out->boundary_margin >= 0 && out->boundary_margin <= 100))
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "options: boundary_margin %g outside [0, 100]",
                          out->boundary_margin);
     if (out->hks_scaling != PHKS_HKS_SCALING_NONE &&
         out->hks_scaling != PHKS_HKS_SCALING_MEAN &&
         out->hks_scaling != PHKS_HKS_SCALING_LOCAL_AREA)
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "options: unknown hks_scaling %d",
                          (int)out->hks_scaling);
     if (out->threads > 1024)
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "options: threads %u above 1024", out->threads);
     /* HKS-simp: fewer than 16 samples cannot carry a spectrum worth the
      * name; beyond 10^8 the samples' own solve is out of reach. Checked
      * even when simplify_above is 0 (never), so a bad value never waits
      * for a large mesh to surface. */
     if (out->simplify_target < 16 || out->simplify_target > 100000000)
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "options: simplify_target %u outside 16..100000000",
                          out->simplify_target);
     return PHKS_OK;
 }
 
-phks_status phks_progress(const phks_options *opt, phks_stage stage,
+phks_status phks__progress(const phks_options *opt, phks_stage stage,
                           double fraction)
 {
     if (!opt->progress)
@@ -132,7 +132,7 @@ phks_status phks_progress(const phks_options *opt, phks_stage stage,
     if (fraction > 1)
         fraction = 1;
     if (opt->progress(opt->progress_user, stage, fraction) != 0)
-        return phks_fail(PHKS_ERROR_CANCELLED,
+        return phks__fail(PHKS_ERROR_CANCELLED,
                          "cancelled by the progress callback");
     return PHKS_OK;
 }

@@ -6,7 +6,7 @@
  * results are bit-identical from run to run.
  *
  * A team keeps worker threads for the length of one long computation
- * (phks_team_enter .. phks_team_leave): an eigen-solve runs about 800
+ * (phks__team_enter .. phks__team_leave): an eigen-solve runs about 800
  * parallel loops on a 5k-vertex mesh, and creating and joining threads
  * for each was measurable. While a team is entered on a thread, the loops
  * that thread starts go to the team's threads in small runs of units that
@@ -43,13 +43,13 @@ static void cpu_relax(void)
 }
 
 typedef struct {
-    phks_range_fn fn;
+    phks__range_fn fn;
     void *ctx;
     size_t begin, end;
 } chunk;
 
 typedef struct {
-    phks_team *team;
+    phks__team *team;
     unsigned index;
 } seat;
 
@@ -58,7 +58,7 @@ typedef struct {
  * lowering pending (release), so no worker can fall a loop behind. Both sides poll
  * first and sleep only after SPIN_ROUNDS; a sleeper is counted under the
  * lock, and the other side signals only where one is counted. */
-struct phks_team {
+struct phks__team {
     pthread_mutex_t lock;
     pthread_cond_t wake, done;
     unsigned workers;               /* started, numbered 1 .. workers */
@@ -66,7 +66,7 @@ struct phks_team {
     atomic_uint pending;            /* workers not done with this loop */
     atomic_bool stopping;
     unsigned used;                  /* workers 1..used - 1 take part */
-    phks_range_fn fn;               /* the loop: units [0, n), in runs of grain */
+    phks__range_fn fn;               /* the loop: units [0, n), in runs of grain */
     void *ctx;
     size_t n, grain;
     atomic_size_t next;             /* the first unit no thread has taken */
@@ -78,7 +78,7 @@ struct phks_team {
 };
 
 /* The team entered on this thread, if any. */
-static _Thread_local phks_team *current_team;
+static _Thread_local phks__team *current_team;
 
 static void *run_chunk(void *arg)
 {
@@ -88,7 +88,7 @@ static void *run_chunk(void *arg)
 }
 
 /* The next generation after `seen`, or `seen` when the team stops. */
-static unsigned long next_generation(phks_team *tm, unsigned long seen)
+static unsigned long next_generation(phks__team *tm, unsigned long seen)
 {
     unsigned long g = seen;
     for (int i = 0; i < SPIN_ROUNDS; i++) {
@@ -108,7 +108,7 @@ static unsigned long next_generation(phks_team *tm, unsigned long seen)
 }
 
 /* Takes runs of the current loop until none is left. */
-static void take_runs(phks_team *tm)
+static void take_runs(phks__team *tm)
 {
     for (;;) {
         size_t begin = atomic_fetch_add_explicit(&tm->next, tm->grain,
@@ -123,7 +123,7 @@ static void take_runs(phks_team *tm)
 static void *team_worker(void *arg)
 {
     const seat *s = arg;
-    phks_team *tm = s->team;
+    phks__team *tm = s->team;
     unsigned long seen = 0;
     for (;;) {
         seen = next_generation(tm, seen);
@@ -141,21 +141,21 @@ static void *team_worker(void *arg)
     return NULL;
 }
 
-static void team_destroy(phks_team *tm)
+static void team_destroy(phks__team *tm)
 {
     pthread_cond_destroy(&tm->done);
     pthread_cond_destroy(&tm->wake);
     pthread_mutex_destroy(&tm->lock);
-    phks_free(tm);
+    phks__free(tm);
 }
 
-phks_team *phks_team_enter(unsigned threads)
+phks__team *phks__team_enter(unsigned threads)
 {
     if (threads > MAX_THREADS)
         threads = MAX_THREADS;
     if (current_team || threads <= 1)
         return NULL;
-    phks_team *tm = phks_calloc(1, sizeof *tm);
+    phks__team *tm = phks__calloc(1, sizeof *tm);
     if (!tm)
         return NULL;
     atomic_init(&tm->generation, 0);
@@ -163,18 +163,18 @@ phks_team *phks_team_enter(unsigned threads)
     atomic_init(&tm->stopping, false);
     atomic_init(&tm->next, 0);
     if (pthread_mutex_init(&tm->lock, NULL) != 0) {
-        phks_free(tm);
+        phks__free(tm);
         return NULL;
     }
     if (pthread_cond_init(&tm->wake, NULL) != 0) {
         pthread_mutex_destroy(&tm->lock);
-        phks_free(tm);
+        phks__free(tm);
         return NULL;
     }
     if (pthread_cond_init(&tm->done, NULL) != 0) {
         pthread_cond_destroy(&tm->wake);
         pthread_mutex_destroy(&tm->lock);
-        phks_free(tm);
+        phks__free(tm);
         return NULL;
     }
     for (unsigned t = 1; t < threads; t++) {
@@ -191,7 +191,7 @@ phks_team *phks_team_enter(unsigned threads)
     return tm;
 }
 
-void phks_team_leave(phks_team *tm)
+void phks__team_leave(phks__team *tm)
 {
     if (!tm)
         return;
@@ -207,7 +207,7 @@ void phks_team_leave(phks_team *tm)
 
 /* The loop on the team: the calling thread and workers 1 .. used - 1
  * take runs of units until none is left. */
-static void team_run(phks_team *tm, phks_range_fn fn, void *ctx, size_t n,
+static void team_run(phks__team *tm, phks__range_fn fn, void *ctx, size_t n,
                      unsigned threads)
 {
     unsigned used = threads < tm->workers + 1 ? threads : tm->workers + 1;
@@ -242,7 +242,7 @@ static void team_run(phks_team *tm, phks_range_fn fn, void *ctx, size_t n,
     tm->busy = false;
 }
 
-unsigned phks_thread_count(const phks_options *opt)
+unsigned phks__thread_count(const phks_options *opt)
 {
     if (opt && opt->threads)
         return opt->threads;
@@ -250,7 +250,7 @@ unsigned phks_thread_count(const phks_options *opt)
     return n < 1 ? 1 : n > MAX_THREADS ? MAX_THREADS : (unsigned)n;
 }
 
-void phks_parallel_for(size_t n, unsigned threads, phks_range_fn fn, void *ctx)
+void phks__parallel_for(size_t n, unsigned threads, phks__range_fn fn, void *ctx)
 {
     if (threads > MAX_THREADS)
         threads = MAX_THREADS;
@@ -261,7 +261,7 @@ void phks_parallel_for(size_t n, unsigned threads, phks_range_fn fn, void *ctx)
             fn(ctx, 0, n);
         return;
     }
-    phks_team *tm = current_team;
+    phks__team *tm = current_team;
     if (tm && !tm->busy) {
         team_run(tm, fn, ctx, n, threads);
         return;
@@ -285,7 +285,7 @@ void phks_parallel_for(size_t n, unsigned threads, phks_range_fn fn, void *ctx)
 }
 
 typedef struct {
-    phks_range_fn fn;
+    phks__range_fn fn;
     void *ctx;
     size_t first;
 } offset_ctx;
@@ -296,21 +296,21 @@ static void run_offset(void *ctx, size_t begin, size_t end)
     o->fn(o->ctx, o->first + begin, o->first + end);
 }
 
-phks_status phks_run_batched(size_t n, unsigned threads, phks_range_fn fn,
+phks_status phks__run_batched(size_t n, unsigned threads, phks__range_fn fn,
                              void *ctx, const phks_options *opt,
                              phks_stage stage, double done, double span,
                              size_t batches)
 {
     for (size_t b = 0; b < batches; b++) {
         if (opt) {
-            phks_status st = phks_progress(opt, stage,
+            phks_status st = phks__progress(opt, stage,
                                            done + span * (double)b / (double)batches);
             if (st != PHKS_OK)
                 return st;
         }
         size_t lo = n * b / batches, hi = n * (b + 1) / batches;
         offset_ctx o = {fn, ctx, lo};
-        phks_parallel_for(hi - lo, threads, run_offset, &o);
+        phks__parallel_for(hi - lo, threads, run_offset, &o);
     }
     return PHKS_OK;
 }

@@ -4,9 +4,9 @@
  * vector comes from a seed that carries over between calls; this one does
  * not, so every solve starts alike.
  */
-#include "internal.h"
+#include "core/core.h"
 
-void phks_random_fill(double *v, size_t n, uint64_t state)
+void phks__random_fill(double *v, size_t n, uint64_t state)
 {
     for (size_t i = 0; i < n; i++) {
         state = state * 6364136223846793005ull + 1442695040888963407ull;

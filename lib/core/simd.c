@@ -4,9 +4,9 @@
  */
 #include "core/simd.h"
 
-bool phks_cpu_avx2(void)
+bool phks__cpu_avx2(void)
 {
-#if PHKS_HAVE_AVX2
+#if PHKS__HAVE_AVX2
     __builtin_cpu_init();
     return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
 #else

@@ -1,7 +1,7 @@
 /*
  * simd.h - whether this build has the AVX2 + FMA kernels. They are
  * compiled with target attributes, whatever the build's own instruction
- * set, and chosen at run time by phks_cpu_avx2() (simd.c). PHKS_NO_SIMD (a
+ * set, and chosen at run time by phks__cpu_avx2() (simd.c). PHKS_NO_SIMD (a
  * compiler flag) builds the portable kernels only, to test them on
  * machines that have AVX2.
  */
@@ -12,13 +12,13 @@
 
 #if defined(__GNUC__) && defined(__x86_64__) && !defined(PHKS_NO_SIMD)
 #include <immintrin.h>
-#define PHKS_HAVE_AVX2 1
+#define PHKS__HAVE_AVX2 1
 #else
-#define PHKS_HAVE_AVX2 0
+#define PHKS__HAVE_AVX2 0
 #endif
 
 /* True when the AVX2 + FMA kernels are built and this processor runs
  * them. */
-bool phks_cpu_avx2(void);
+bool phks__cpu_avx2(void);
 
 #endif

@@ -2,8 +2,8 @@
  * was built with from the library it runs with. */
 #include "core/core.h"
 
-#define PHKS_STR2(x) #x
-#define PHKS_STR(x) PHKS_STR2(x)
+#define PHKS__STR2(x) #x
+#define PHKS__STR(x) PHKS__STR2(x)
 
 unsigned phks_version_number(void)
 {
@@ -12,6 +12,6 @@ unsigned phks_version_number(void)
 
 const char *phks_version_string(void)
 {
-    return PHKS_STR(PHKS_VERSION_MAJOR) "." PHKS_STR(PHKS_VERSION_MINOR) "."
-        PHKS_STR(PHKS_VERSION_PATCH);
+    return PHKS__STR(PHKS_VERSION_MAJOR) "." PHKS__STR(PHKS_VERSION_MINOR) "."
+        PHKS__STR(PHKS_VERSION_PATCH);
 }

@@ -47,7 +47,7 @@ struct phks_db {
     phks_options options;
     bool cache_loaded;
     int64_t cache_version;
-    phks_db_cache cache;
+    phks__db_cache cache;
 };
 
 /* ---- SQLite errors */
@@ -77,7 +77,7 @@ static phks_status sql_status(int rc)
 static phks_status sql_fail(const phks_db *db, int rc, const char *what)
 {
     const char *detail = db->conn ? sqlite3_errmsg(db->conn) : sqlite3_errstr(rc);
-    return phks_fail(sql_status(rc), "%s: %s: %s", db->path, what, detail);
+    return phks__fail(sql_status(rc), "%s: %s: %s", db->path, what, detail);
 }
 
 static phks_status prepare(phks_db *db, const char *sql, sqlite3_stmt **stmt)
@@ -178,7 +178,7 @@ static phks_status options_blob(const phks_options *options, void **blob,
                                 size_t *size)
 {
     phks_signature *sig;
-    phks_status st = phks_signature_alloc(1, options->scale_count, &sig);
+    phks_status st = phks__signature_alloc(1, options->scale_count, &sig);
     if (st != PHKS_OK)
         return st;
     sig->options = *options;
@@ -187,9 +187,9 @@ static phks_status options_blob(const phks_options *options, void **blob,
     sig->persistence[0] = 0;
     memset(sig->vectors, 0, sig->length * sizeof *sig->vectors);
     *size = phks_signature_encoded_size(sig);
-    *blob = phks_malloc(*size);
+    *blob = phks__malloc(*size);
     if (!*blob)
-        st = phks_fail_oom("database options");
+        st = phks__fail_oom("database options");
     else
         st = phks_signature_encode(sig, *blob, *size, size);
     phks_signature_free(sig);
@@ -204,14 +204,14 @@ static phks_status decode_stored(phks_db *db, const void *blob, int size,
 {
     *sig = NULL;
     if (!blob || size <= 0)
-        return phks_fail(PHKS_ERROR_CORRUPT, "%s: %s: no signature blob",
+        return phks__fail(PHKS_ERROR_CORRUPT, "%s: %s: no signature blob",
                          db->path, what);
     phks_status st = phks_signature_decode(blob, (size_t)size, sig);
     if (st == PHKS_OK || st == PHKS_ERROR_OUT_OF_MEMORY)
         return st;
     char prefix[512];
     snprintf(prefix, sizeof prefix, "%s: %s", db->path, what);
-    phks_error_prefix(prefix);
+    phks__error_prefix(prefix);
     return st == PHKS_ERROR_UNSUPPORTED_VERSION ? st : PHKS_ERROR_CORRUPT;
 }
 
@@ -266,17 +266,17 @@ static bool header_empty(const header *h)
 static phks_status check_header(phks_db *db, const header *h)
 {
     if (h->application_id != DB_APPLICATION_ID)
-        return phks_fail(PHKS_ERROR_CORRUPT,
+        return phks__fail(PHKS_ERROR_CORRUPT,
                          "%s: not a libphks database (an SQLite database "
                          "with application_id %lld)",
                          db->path, (long long)h->application_id);
     if (h->user_version > DB_FORMAT)
-        return phks_fail(PHKS_ERROR_UNSUPPORTED_VERSION,
+        return phks__fail(PHKS_ERROR_UNSUPPORTED_VERSION,
                          "%s: database format %lld is newer than this "
                          "library's %d",
                          db->path, (long long)h->user_version, DB_FORMAT);
     if (h->user_version < 1)
-        return phks_fail(PHKS_ERROR_CORRUPT, "%s: database format %lld",
+        return phks__fail(PHKS_ERROR_CORRUPT, "%s: database format %lld",
                          db->path, (long long)h->user_version);
     return PHKS_OK;
 }
@@ -331,7 +331,7 @@ static phks_status check_tables(phks_db *db)
     phks_status st =
         query_int(db, "SELECT value FROM meta WHERE key = 'format'", &format);
     if (st == PHKS_OK && format != DB_FORMAT)
-        st = phks_fail(PHKS_ERROR_CORRUPT,
+        st = phks__fail(PHKS_ERROR_CORRUPT,
                        "%s: meta 'format' %lld does not match the header",
                        db->path, (long long)format);
     sqlite3_stmt *stmt;
@@ -353,7 +353,7 @@ static phks_status setup(phks_db *db, bool memory)
         return st;
     bool empty = header_empty(&h);
     if (empty && db->readonly)
-        return phks_fail(PHKS_ERROR_CORRUPT,
+        return phks__fail(PHKS_ERROR_CORRUPT,
                          "%s: an empty file, not a libphks database (open it "
                          "writable to create one)",
                          db->path);
@@ -380,47 +380,47 @@ phks_status phks_db_open(const char *path, unsigned flags, phks_db **out)
     if (out)
         *out = NULL;
     if (!path || !out)
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "phks_db_open: NULL argument");
     if (flags & ~(PHKS_DB_READONLY | PHKS_DB_CREATE))
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "phks_db_open: unknown flags 0x%x",
                          flags & ~(PHKS_DB_READONLY | PHKS_DB_CREATE));
     bool readonly = flags & PHKS_DB_READONLY, memory = !strcmp(path, ":memory:");
     if (readonly && (flags & PHKS_DB_CREATE))
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "phks_db_open: PHKS_DB_READONLY with PHKS_DB_CREATE");
     if (!*path)
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT, "phks_db_open: empty path");
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT, "phks_db_open: empty path");
     if (memory && readonly)
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "phks_db_open: a database in memory cannot be "
                          "read-only");
     if (!sqlite3_threadsafe())
-        return phks_fail(PHKS_ERROR_IO,
+        return phks__fail(PHKS_ERROR_IO,
                          "phks_db_open: SQLite was built without threads");
 
-    phks_db *db = phks_calloc(1, sizeof *db);
+    phks_db *db = phks__calloc(1, sizeof *db);
     size_t len = strlen(path);
     /* With URIs enabled in SQLite's global configuration, a relative path
      * "file:..." would be parsed as a URI: "./" keeps it a file name. */
     bool uri_like = !strncmp(path, "file:", 5);
-    char *name = db ? phks_malloc(len + 3) : NULL;
-    if (!db || !name || !(db->path = phks_malloc(len + 1))) {
-        phks_free(name);
-        phks_free(db);
-        return phks_fail_oom("phks_db_open");
+    char *name = db ? phks__malloc(len + 3) : NULL;
+    if (!db || !name || !(db->path = phks__malloc(len + 1))) {
+        phks__free(name);
+        phks__free(db);
+        return phks__fail_oom("phks_db_open");
     }
     memcpy(db->path, path, len + 1);
     snprintf(name, len + 3, "%s%s", uri_like ? "./" : "", path);
     db->readonly = readonly;
-    phks_db_cache_init(&db->cache);
+    phks__db_cache_init(&db->cache);
     phks_status st = PHKS_OK;
     db->lock_ready = pthread_mutex_init(&db->lock, NULL) == 0;
     db->cache_lock_ready =
         db->lock_ready && pthread_rwlock_init(&db->cache_lock, NULL) == 0;
     if (!db->cache_lock_ready)
-        st = phks_fail_oom("phks_db_open: locks");
+        st = phks__fail_oom("phks_db_open: locks");
     if (st == PHKS_OK) {
         int mode = readonly ? SQLITE_OPEN_READONLY
                             : SQLITE_OPEN_READWRITE |
@@ -435,7 +435,7 @@ phks_status phks_db_open(const char *path, unsigned flags, phks_db **out)
                               ? "cannot open or create"
                               : "cannot open (missing? PHKS_DB_CREATE makes it)");
     }
-    phks_free(name);
+    phks__free(name);
     if (st == PHKS_OK) {
         sqlite3_busy_timeout(db->conn, DB_BUSY_MS);
 #ifdef SQLITE_DBCONFIG_DEFENSIVE
@@ -461,13 +461,13 @@ void phks_db_close(phks_db *db)
         return;
     sqlite3_finalize(db->version);
     sqlite3_close_v2(db->conn);
-    phks_db_cache_release(&db->cache);
+    phks__db_cache_release(&db->cache);
     if (db->cache_lock_ready)
         pthread_rwlock_destroy(&db->cache_lock);
     if (db->lock_ready)
         pthread_mutex_destroy(&db->lock);
-    phks_free(db->path);
-    phks_free(db);
+    phks__free(db->path);
+    phks__free(db);
 }
 
 /* ---- the cache */
@@ -478,7 +478,7 @@ void phks_db_close(phks_db *db)
  * the file as damaged; get and remove still reach the row by its id. */
 static phks_status id_below_one(const phks_db *db, int64_t id)
 {
-    return phks_fail(PHKS_ERROR_CORRUPT,
+    return phks__fail(PHKS_ERROR_CORRUPT,
                      "%s: entry id %lld: ids start at 1 (the row was "
                      "written by another program)",
                      db->path, (long long)id);
@@ -498,7 +498,7 @@ static phks_status data_version(phks_db *db, int64_t *version)
 
 static void drop_cache(phks_db *db)
 {
-    phks_db_cache_release(&db->cache);
+    phks__db_cache_release(&db->cache);
     db->cache_loaded = false;
 }
 
@@ -537,21 +537,21 @@ static phks_status reload(phks_db *db)
         const char *name = (const char *)sqlite3_column_text(stmt, 1);
         const char *label = (const char *)sqlite3_column_text(stmt, 2);
         if (!db->has_options ||
-            !phks_options_comparable(&sig->options, &db->options))
-            st = phks_fail(PHKS_ERROR_CORRUPT,
+            !phks__options_comparable(&sig->options, &db->options))
+            st = phks__fail(PHKS_ERROR_CORRUPT,
                            "%s: %s was made with other options than the "
                            "database's",
                            db->path, what);
         else if (!name && sqlite3_errcode(db->conn) == SQLITE_NOMEM)
-            st = phks_fail_oom("database cache");
+            st = phks__fail_oom("database cache");
         else
-            st = phks_db_cache_append(&db->cache, id, name ? name : "", label,
+            st = phks__db_cache_append(&db->cache, id, name ? name : "", label,
                                       sig);
         if (st == PHKS_ERROR_OUT_OF_MEMORY)
-            st = phks_fail_oom("database cache");
+            st = phks__fail_oom("database cache");
         else if (st == PHKS_ERROR_INVALID_ARGUMENT)
             st = id < 1 ? id_below_one(db, id)
-                        : phks_fail(PHKS_ERROR_CORRUPT,
+                        : phks__fail(PHKS_ERROR_CORRUPT,
                                     "%s: %s is out of place", db->path, what);
         phks_signature_free(sig);
     }
@@ -587,16 +587,16 @@ static phks_status refresh(phks_db *db)
 static phks_status check_entry(const char *where, const phks_db_entry *e)
 {
     if (!e->name || !e->signature)
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT, "%s: NULL %s", where,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT, "%s: NULL %s", where,
                          e->name ? "signature" : "name");
     if (!valid_utf8(e->name))
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "%s: the name is not valid UTF-8", where);
     if (e->label && !valid_utf8(e->label))
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "%s: the label is not valid UTF-8", where);
     if (e->signature->count == 0)
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "%s: the signature has no features", where);
     return PHKS_OK;
 }
@@ -626,10 +626,10 @@ static phks_status insert_all(phks_db *db, const char *fn, bool batch,
         const phks_db_entry *e = &entries[i];
         size_t size = phks_signature_encoded_size(e->signature);
         if (size > room) {
-            phks_free(blob);
+            phks__free(blob);
             room = size;
-            if (!(blob = phks_malloc(room))) {
-                st = phks_fail_oom("database entry");
+            if (!(blob = phks__malloc(room))) {
+                st = phks__fail_oom("database entry");
                 break;
             }
         }
@@ -637,7 +637,7 @@ static phks_status insert_all(phks_db *db, const char *fn, bool batch,
             PHKS_OK)
             break;
         if (size > INT_MAX) {
-            st = phks_fail(PHKS_ERROR_TOO_LARGE, "%s: signature of %zu bytes",
+            st = phks__fail(PHKS_ERROR_TOO_LARGE, "%s: signature of %zu bytes",
                            fn, size);
             break;
         }
@@ -662,7 +662,7 @@ static phks_status insert_all(phks_db *db, const char *fn, bool batch,
         sqlite3_clear_bindings(stmt);
     }
     sqlite3_finalize(stmt);
-    phks_free(blob);
+    phks__free(blob);
     return st;
 }
 
@@ -677,9 +677,9 @@ static phks_status settle_options(phks_db *db, const char *fn,
     if (st != PHKS_OK)
         return st;
     if (db->has_options)
-        return phks_options_comparable(mine, &db->options)
+        return phks__options_comparable(mine, &db->options)
                    ? PHKS_OK
-                   : phks_fail(PHKS_ERROR_INCOMPATIBLE,
+                   : phks__fail(PHKS_ERROR_INCOMPATIBLE,
                                "%s: the signature was made with other "
                                "options than the database's",
                                fn);
@@ -698,7 +698,7 @@ static phks_status settle_options(phks_db *db, const char *fn,
             st = sql_fail(db, rc, "cannot record the options");
         sqlite3_finalize(stmt);
     }
-    phks_free(blob);
+    phks__free(blob);
     *set = st == PHKS_OK;
     return st;
 }
@@ -709,32 +709,32 @@ static phks_status add_entries(phks_db *db, const char *fn, bool batch,
 {
     char where[64];
     if (!db || (count && !entries))
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT, "%s: NULL argument", fn);
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT, "%s: NULL argument", fn);
     if (db->readonly)
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT, "%s: %s is open read-only",
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT, "%s: %s is open read-only",
                          fn, db->path);
     for (size_t i = 0; i < count; i++) {
         where_of(where, sizeof where, fn, batch, i);
         phks_status st = check_entry(where, &entries[i]);
         if (st != PHKS_OK)
             return st;
-        if (!phks_options_comparable(&entries[i].signature->options,
+        if (!phks__options_comparable(&entries[i].signature->options,
                                      &entries[0].signature->options))
-            return phks_fail(PHKS_ERROR_INCOMPATIBLE,
+            return phks__fail(PHKS_ERROR_INCOMPATIBLE,
                              "%s: made with other options than entry 0", where);
     }
     if (count == 0)
         return PHKS_OK;
-    int64_t *new_ids = phks_malloc_array(count, sizeof *new_ids);
+    int64_t *new_ids = phks__malloc_array(count, sizeof *new_ids);
     if (!new_ids)
-        return phks_fail_oom(fn);
+        return phks__fail_oom(fn);
 
     pthread_mutex_lock(&db->lock);
     const phks_options *mine = &entries[0].signature->options;
     bool set = false;
     phks_status st = PHKS_OK;
-    if (db->has_options && !phks_options_comparable(mine, &db->options))
-        st = phks_fail(PHKS_ERROR_INCOMPATIBLE,
+    if (db->has_options && !phks__options_comparable(mine, &db->options))
+        st = phks__fail(PHKS_ERROR_INCOMPATIBLE,
                        "%s: the signature was made with other options than "
                        "the database's",
                        fn);
@@ -752,7 +752,7 @@ static phks_status add_entries(phks_db *db, const char *fn, bool batch,
         if (db->cache_loaded) {
             pthread_rwlock_wrlock(&db->cache_lock);
             for (size_t i = 0; i < count && db->cache_loaded; i++)
-                if (phks_db_cache_append(&db->cache, new_ids[i],
+                if (phks__db_cache_append(&db->cache, new_ids[i],
                                          entries[i].name, entries[i].label,
                                          entries[i].signature) != PHKS_OK)
                     drop_cache(db); /* the next query reloads */
@@ -762,7 +762,7 @@ static phks_status add_entries(phks_db *db, const char *fn, bool batch,
             memcpy(ids, new_ids, count * sizeof *ids);
     }
     pthread_mutex_unlock(&db->lock);
-    phks_free(new_ids);
+    phks__free(new_ids);
     return st;
 }
 
@@ -782,10 +782,10 @@ phks_status phks_db_add_batch(phks_db *db, const phks_db_entry *entries,
 phks_status phks_db_remove(phks_db *db, int64_t id)
 {
     if (!db)
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "phks_db_remove: NULL database");
     if (db->readonly)
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "phks_db_remove: %s is open read-only", db->path);
     pthread_mutex_lock(&db->lock);
     sqlite3_stmt *stmt;
@@ -797,14 +797,14 @@ phks_status phks_db_remove(phks_db *db, int64_t id)
         if (rc != SQLITE_DONE)
             st = sql_fail(db, rc, "phks_db_remove");
         else if (sqlite3_changes(db->conn) == 0)
-            st = phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+            st = phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                            "phks_db_remove: no entry with id %lld",
                            (long long)id);
         sqlite3_finalize(stmt);
     }
     if (st == PHKS_OK && db->cache_loaded) {
         pthread_rwlock_wrlock(&db->cache_lock);
-        phks_db_cache_remove(&db->cache, id);
+        phks__db_cache_remove(&db->cache, id);
         pthread_rwlock_unlock(&db->cache_lock);
     }
     pthread_mutex_unlock(&db->lock);
@@ -818,7 +818,7 @@ phks_status phks_db_count(phks_db *db, size_t *count)
     if (count)
         *count = 0;
     if (!db || !count)
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "phks_db_count: NULL argument");
     int64_t n = 0;
     pthread_mutex_lock(&db->lock);
@@ -853,7 +853,7 @@ phks_status phks_db_list(phks_db *db, int64_t after_id, int64_t *ids,
     if (count)
         *count = 0;
     if (!db || !count || (!ids && capacity))
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "phks_db_list: NULL argument");
     if (capacity == 0)
         return PHKS_OK;
@@ -881,7 +881,7 @@ phks_status phks_db_list(phks_db *db, int64_t after_id, int64_t *ids,
             if (id < 1)
                 st = id_below_one(db, id);
             else if (id <= (n ? ids[n - 1] : after_id))
-                st = phks_fail(PHKS_ERROR_CORRUPT,
+                st = phks__fail(PHKS_ERROR_CORRUPT,
                                "phks_db_list: ids out of order, the file is "
                                "damaged");
             else
@@ -917,7 +917,7 @@ phks_status phks_db_get(phks_db *db, int64_t id, phks_signature **signature,
     if (signature)
         *signature = NULL;
     if (!db || (!name && name_capacity) || (!label && label_capacity))
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "phks_db_get: NULL argument");
     pthread_mutex_lock(&db->lock);
     sqlite3_stmt *stmt;
@@ -931,7 +931,7 @@ phks_status phks_db_get(phks_db *db, int64_t id, phks_signature **signature,
     sqlite3_bind_int64(stmt, 1, id);
     int rc = sqlite3_step(stmt);
     if (rc == SQLITE_DONE)
-        st = phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        st = phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                        "phks_db_get: no entry with id %lld", (long long)id);
     else if (rc != SQLITE_ROW)
         st = sql_fail(db, rc, "phks_db_get");
@@ -941,13 +941,13 @@ phks_status phks_db_get(phks_db *db, int64_t id, phks_signature **signature,
         n = column_text(stmt, 0, &name_len);
         l = column_text(stmt, 1, &label_len);
         if (!n || !l)
-            st = phks_fail_oom("phks_db_get");
+            st = phks__fail_oom("phks_db_get");
         else if (name && name_len >= name_capacity)
-            st = phks_fail(PHKS_ERROR_BUFFER_TOO_SMALL,
+            st = phks__fail(PHKS_ERROR_BUFFER_TOO_SMALL,
                            "phks_db_get: the name needs %zu bytes, room for %zu",
                            name_len + 1, name_capacity);
         else if (label && label_len >= label_capacity)
-            st = phks_fail(PHKS_ERROR_BUFFER_TOO_SMALL,
+            st = phks__fail(PHKS_ERROR_BUFFER_TOO_SMALL,
                            "phks_db_get: the label needs %zu bytes, room for "
                            "%zu",
                            label_len + 1, label_capacity);
@@ -981,18 +981,18 @@ phks_status phks_db_query(phks_db *db, const phks_signature *query, size_t k,
     if (count)
         *count = 0;
     if (!db || !query || !hits || !count)
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "phks_db_query: NULL argument");
     if (k == 0)
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT, "phks_db_query: k is 0");
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT, "phks_db_query: k is 0");
     /* A writer that runs out of memory updating the cache drops it; the
      * scan then finds it unloaded and refreshes again. */
     for (;;) {
         pthread_mutex_lock(&db->lock);
         phks_status st = refresh(db);
         if (st == PHKS_OK && db->has_options &&
-            !phks_options_comparable(&query->options, &db->options))
-            st = phks_fail(PHKS_ERROR_INCOMPATIBLE,
+            !phks__options_comparable(&query->options, &db->options))
+            st = phks__fail(PHKS_ERROR_INCOMPATIBLE,
                            "phks_db_query: the query was made with other "
                            "options than the database's");
         pthread_mutex_unlock(&db->lock);
@@ -1000,7 +1000,7 @@ phks_status phks_db_query(phks_db *db, const phks_signature *query, size_t k,
             return st;
         pthread_rwlock_rdlock(&db->cache_lock);
         if (db->cache_loaded) {
-            st = phks_db_cache_query(&db->cache, query, k, hits, count);
+            st = phks__db_cache_query(&db->cache, query, k, hits, count);
             pthread_rwlock_unlock(&db->cache_lock);
             return st;
         }

@@ -11,12 +11,12 @@
 /* The packed copy of a database's entries that queries scan. Entries stay
  * in ascending id order. Entry e's feature vectors form one block at
  * vectors + vector_at[e]: `length` rows (one per scale) of
- * phks_db_padded(features[e]) values (one per feature), the padding lanes
+ * phks__db_padded(features[e]) values (one per feature), the padding lanes
  * +infinity. text + text_at[e] holds "name\0label\0", each cut to
  * PHKS_DB_TEXT_MAX bytes. Removed entries keep their slot with features 0
  * until more than half the slots are dead. Not locked by itself: db.c
  * guards it with a read-write lock. */
-typedef struct phks_db_cache {
+typedef struct phks__db_cache {
     size_t count, dead, capacity; /* slots used, removed, allocated     */
     size_t length;                /* vector length; 0 until the first   */
     uint32_t max_features;        /* largest features[e] ever added     */
@@ -27,26 +27,26 @@ typedef struct phks_db_cache {
     size_t vectors_used, vectors_capacity; /* in doubles                */
     char *text;
     size_t text_used, text_capacity;
-} phks_db_cache;
+} phks__db_cache;
 
 /* Feature count rounded up to the scan's lane count. */
-size_t phks_db_padded(size_t features);
+size_t phks__db_padded(size_t features);
 /* An empty cache; release frees it and leaves it empty. */
-void phks_db_cache_init(phks_db_cache *cache);
-void phks_db_cache_release(phks_db_cache *cache);
+void phks__db_cache_init(phks__db_cache *cache);
+void phks__db_cache_release(phks__db_cache *cache);
 /* Appends an entry whose id is above every id held, with vectors of the
  * same length as the others. Returns PHKS_ERROR_OUT_OF_MEMORY (the cache
  * is left as it was) or PHKS_ERROR_INVALID_ARGUMENT (id below 1 or out of
  * order, other length, no features) without setting a message: the caller,
  * whose own call may still succeed, decides what to report. */
-phks_status phks_db_cache_append(phks_db_cache *cache, int64_t id,
+phks_status phks__db_cache_append(phks__db_cache *cache, int64_t id,
                                  const char *name, const char *label,
                                  const phks_signature *signature);
 /* Marks entry id removed (no-op if absent); compacts in place. */
-void phks_db_cache_remove(phks_db_cache *cache, int64_t id);
+void phks__db_cache_remove(phks__db_cache *cache, int64_t id);
 /* The k best entries for query, as phks_db_query documents; the query's
  * vector length must be the cache's. Safe from many threads at once. */
-phks_status phks_db_cache_query(const phks_db_cache *cache,
+phks_status phks__db_cache_query(const phks__db_cache *cache,
                                 const phks_signature *query, size_t k,
                                 phks_hit *hits, size_t *count);
 

@@ -26,25 +26,25 @@
  * cost more than it saves. */
 #define PARALLEL_MIN 4096
 
-size_t phks_db_padded(size_t features)
+size_t phks__db_padded(size_t features)
 {
     return (features + LANES - 1) / LANES * LANES;
 }
 
-void phks_db_cache_init(phks_db_cache *cache)
+void phks__db_cache_init(phks__db_cache *cache)
 {
     memset(cache, 0, sizeof *cache);
 }
 
-void phks_db_cache_release(phks_db_cache *cache)
+void phks__db_cache_release(phks__db_cache *cache)
 {
-    phks_free(cache->ids);
-    phks_free(cache->features);
-    phks_free(cache->vector_at);
-    phks_free(cache->text_at);
-    phks_free(cache->vectors);
-    phks_free(cache->text);
-    phks_db_cache_init(cache);
+    phks__free(cache->ids);
+    phks__free(cache->features);
+    phks__free(cache->vector_at);
+    phks__free(cache->text_at);
+    phks__free(cache->vectors);
+    phks__free(cache->text);
+    phks__db_cache_init(cache);
 }
 
 /* Bytes of s kept in a hit: at most PHKS_DB_TEXT_MAX, never splitting a
@@ -72,7 +72,7 @@ static bool grow(void **array, size_t *capacity, size_t used, size_t more,
     size_t want = *capacity < 64 ? 64 : *capacity;
     while (want - used < more)
         want = want > SIZE_MAX / 2 / item ? used + more : want * 2;
-    void *p = phks_realloc_array(*array, want, item);
+    void *p = phks__realloc_array(*array, want, item);
     if (!p)
         return false;
     *array = p;
@@ -80,7 +80,7 @@ static bool grow(void **array, size_t *capacity, size_t used, size_t more,
     return true;
 }
 
-static bool grow_slots(phks_db_cache *c)
+static bool grow_slots(phks__db_cache *c)
 {
     if (c->count < c->capacity)
         return true;
@@ -88,23 +88,23 @@ static bool grow_slots(phks_db_cache *c)
     /* An array that grew before another failed is only larger: the
      * capacity moves on only when all four have grown. */
     void *p;
-    if (!(p = phks_realloc_array(c->ids, want, sizeof *c->ids)))
+    if (!(p = phks__realloc_array(c->ids, want, sizeof *c->ids)))
         return false;
     c->ids = p;
-    if (!(p = phks_realloc_array(c->features, want, sizeof *c->features)))
+    if (!(p = phks__realloc_array(c->features, want, sizeof *c->features)))
         return false;
     c->features = p;
-    if (!(p = phks_realloc_array(c->vector_at, want, sizeof *c->vector_at)))
+    if (!(p = phks__realloc_array(c->vector_at, want, sizeof *c->vector_at)))
         return false;
     c->vector_at = p;
-    if (!(p = phks_realloc_array(c->text_at, want, sizeof *c->text_at)))
+    if (!(p = phks__realloc_array(c->text_at, want, sizeof *c->text_at)))
         return false;
     c->text_at = p;
     c->capacity = want;
     return true;
 }
 
-phks_status phks_db_cache_append(phks_db_cache *c, int64_t id,
+phks_status phks__db_cache_append(phks__db_cache *c, int64_t id,
                                  const char *name, const char *label,
                                  const phks_signature *sig)
 {
@@ -112,7 +112,7 @@ phks_status phks_db_cache_append(phks_db_cache *c, int64_t id,
     if (id < 1 || (c->count && id <= c->ids[c->count - 1]) ||
         sig->count == 0 || sig->count > UINT32_MAX || sig->length != length)
         return PHKS_ERROR_INVALID_ARGUMENT;
-    size_t lanes = phks_db_padded(sig->count);
+    size_t lanes = phks__db_padded(sig->count);
     if (length && lanes > SIZE_MAX / length)
         return PHKS_ERROR_OUT_OF_MEMORY;
     size_t block = lanes * length;
@@ -150,13 +150,13 @@ phks_status phks_db_cache_append(phks_db_cache *c, int64_t id,
 }
 
 /* Moves the live entries down over the removed ones, in order. */
-static void compact(phks_db_cache *c)
+static void compact(phks__db_cache *c)
 {
     size_t out = 0, vec = 0, text = 0;
     for (size_t e = 0; e < c->count; e++) {
         if (c->features[e] == 0)
             continue;
-        size_t block = phks_db_padded(c->features[e]) * c->length;
+        size_t block = phks__db_padded(c->features[e]) * c->length;
         const char *t = c->text + c->text_at[e];
         size_t tlen = strlen(t) + 1;
         tlen += strlen(t + tlen) + 1;
@@ -177,7 +177,7 @@ static void compact(phks_db_cache *c)
     c->text_used = text;
 }
 
-void phks_db_cache_remove(phks_db_cache *c, int64_t id)
+void phks__db_cache_remove(phks__db_cache *c, int64_t id)
 {
     size_t lo = 0, hi = c->count;
     while (lo < hi) {
@@ -215,7 +215,7 @@ typedef struct scan_part {
 } scan_part;
 
 typedef struct scan_job {
-    const phks_db_cache *cache;
+    const phks__db_cache *cache;
     const phks_signature *query;
     const double *rows; /* the query's vectors, padded to whole passes */
     size_t keep;     /* heap capacity: min(k, live entries) */
@@ -416,7 +416,7 @@ SCAN_CLONES
 static void scan_slots(const scan_job *job, scan_part *p, size_t begin,
                        size_t end)
 {
-    const phks_db_cache *c = job->cache;
+    const phks__db_cache *c = job->cache;
     const double *q = job->rows;
     size_t nq = job->query->count, L = c->length, keep = job->keep;
     for (size_t e = begin; e < end; e++) {
@@ -426,7 +426,7 @@ static void scan_slots(const scan_job *job, scan_part *p, size_t begin,
         bool full = p->size == keep;
         double limit = full ? p->heap[0].score : INFINITY;
         double score = entry_score(q, nq, L, c->vectors + c->vector_at[e], ne,
-                                   phks_db_padded(ne), p->colmin, full, limit);
+                                   phks__db_padded(ne), p->colmin, full, limit);
         if (!full || score < limit)
             heap_push(p, keep, (candidate){score, c->ids[e], e});
     }
@@ -447,7 +447,7 @@ static int by_score_then_id(const void *a, const void *b)
     return worse(x, y) ? 1 : worse(y, x) ? -1 : 0;
 }
 
-phks_status phks_db_cache_query(const phks_db_cache *c,
+phks_status phks__db_cache_query(const phks__db_cache *c,
                                 const phks_signature *query, size_t k,
                                 phks_hit *hits, size_t *count)
 {
@@ -456,38 +456,38 @@ phks_status phks_db_cache_query(const phks_db_cache *c,
     if (live == 0)
         return PHKS_OK;
     size_t keep = k < live ? k : live;
-    unsigned parts = live < PARALLEL_MIN ? 1 : phks_thread_count(NULL);
+    unsigned parts = live < PARALLEL_MIN ? 1 : phks__thread_count(NULL);
     scan_job job = {c, query, NULL, keep, parts, NULL};
     candidate *all = NULL;
     phks_status st = PHKS_OK;
     size_t L = c->length, padded = (query->count + ROWS - 1) / ROWS * ROWS;
-    double *rows = phks_malloc_array(padded, L * sizeof *rows);
+    double *rows = phks__malloc_array(padded, L * sizeof *rows);
     job.rows = rows;
-    job.part = phks_calloc(parts, sizeof *job.part);
+    job.part = phks__calloc(parts, sizeof *job.part);
     if (!rows || !job.part) {
-        st = phks_fail_oom("database query");
+        st = phks__fail_oom("database query");
         goto done;
     }
     for (size_t i = 0; i < padded * L; i++)
         rows[i] = i < query->count * L ? query->vectors[i] : INFINITY;
     for (unsigned t = 0; t < parts; t++) {
-        job.part[t].heap = phks_malloc_array(keep, sizeof(candidate));
+        job.part[t].heap = phks__malloc_array(keep, sizeof(candidate));
         job.part[t].colmin =
-            phks_malloc_array(phks_db_padded(c->max_features), sizeof(double));
+            phks__malloc_array(phks__db_padded(c->max_features), sizeof(double));
         if (!job.part[t].heap || !job.part[t].colmin) {
-            st = phks_fail_oom("database query");
+            st = phks__fail_oom("database query");
             goto done;
         }
     }
-    phks_parallel_for(parts, parts, scan_range, &job);
+    phks__parallel_for(parts, parts, scan_range, &job);
 
     /* The best `keep` of all parts' lists. */
     candidate *best = job.part[0].heap;
     size_t total = job.part[0].size;
     if (parts > 1) {
-        all = phks_malloc_array(parts, keep * sizeof *all);
+        all = phks__malloc_array(parts, keep * sizeof *all);
         if (!all) {
-            st = phks_fail_oom("database query");
+            st = phks__fail_oom("database query");
             goto done;
         }
         total = 0;
@@ -513,11 +513,11 @@ phks_status phks_db_cache_query(const phks_db_cache *c,
 done:
     if (job.part)
         for (unsigned t = 0; t < parts; t++) {
-            phks_free(job.part[t].heap);
-            phks_free(job.part[t].colmin);
+            phks__free(job.part[t].heap);
+            phks__free(job.part[t].colmin);
         }
-    phks_free(job.part);
-    phks_free(all);
-    phks_free(rows);
+    phks__free(job.part);
+    phks__free(all);
+    phks__free(rows);
     return st;
 }

@@ -24,20 +24,20 @@ typedef struct {
 
 static void release(arpack_work *w)
 {
-    phks_free(w->resid);
-    phks_free(w->v);
-    phks_free(w->workd);
-    phks_free(w->workl);
-    phks_free(w->d);
-    phks_free(w->select);
+    phks__free(w->resid);
+    phks__free(w->v);
+    phks__free(w->workd);
+    phks__free(w->workl);
+    phks__free(w->d);
+    phks__free(w->select);
 }
 
-static phks_status iterate(const phks_operator_matrix *op, size_t k,
+static phks_status iterate(const phks__operator_matrix *op, size_t k,
                            const phks_options *opt, arpack_work *w,
                            a_int *iparam, a_int *ipntr)
 {
     a_int n = (a_int)op->n, ido = 0, info = 1; /* info 1: use resid */
-    unsigned threads = phks_thread_count(opt);
+    unsigned threads = phks__thread_count(opt);
     size_t products = 0, expected = 4 * k + 100;
     for (;;) {
         dsaupd_c(&ido, "I", n, "SA", (a_int)k, opt->tolerance, w->resid,
@@ -45,48 +45,48 @@ static phks_status iterate(const phks_operator_matrix *op, size_t k,
                  &info);
         if (ido != -1 && ido != 1)
             break;
-        phks_operator_apply(op, w->workd + ipntr[0] - 1, w->workd + ipntr[1] - 1,
+        phks__operator_apply(op, w->workd + ipntr[0] - 1, w->workd + ipntr[1] - 1,
                             1, threads);
         products++;
         if (products % 16 == 0) {
-            phks_status st = phks_progress(opt, PHKS_STAGE_EIGEN,
+            phks_status st = phks__progress(opt, PHKS_STAGE_EIGEN,
                                            0.95 * (double)products / (double)expected);
             if (st != PHKS_OK)
                 return st;
         }
     }
     if (info == 1)
-        return phks_fail(PHKS_ERROR_NO_CONVERGENCE,
+        return phks__fail(PHKS_ERROR_NO_CONVERGENCE,
                          "ARPACK: no convergence after %d restarts (%d of %zu "
                          "eigenpairs converged)",
                          (int)iparam[2], (int)iparam[4], k);
     if (info < 0)
-        return phks_fail(PHKS_ERROR_SOLVER, "ARPACK dsaupd: info %d", (int)info);
+        return phks__fail(PHKS_ERROR_SOLVER, "ARPACK dsaupd: info %d", (int)info);
     return PHKS_OK;
 }
 
-phks_status phks_eigen_arpack(const phks_operator_matrix *op, size_t k,
+phks_status phks__eigen_arpack(const phks__operator_matrix *op, size_t k,
                               const phks_options *opt, double *values,
                               double *vectors)
 {
     size_t n = op->n;
     if (k + 1 >= n) /* ARPACK needs nev < ncv <= n */
-        return phks_eigen_dense(op, k, opt, values, vectors);
+        return phks__eigen_dense(op, k, opt, values, vectors);
     arpack_work w = {0};
     size_t ncv = 2 * k + 1 > k + 20 ? 2 * k + 1 : k + 20;
     w.ncv = (a_int)(ncv < n ? ncv : n);
     w.lworkl = w.ncv * (w.ncv + 8);
-    w.resid = phks_malloc_array(n, sizeof(double));
-    w.v = phks_malloc_array(n, (size_t)w.ncv * sizeof(double));
-    w.workd = phks_malloc_array(3 * n, sizeof(double));
-    w.workl = phks_malloc_array((size_t)w.lworkl, sizeof(double));
-    w.d = phks_malloc_array(k, sizeof(double));
-    w.select = phks_calloc((size_t)w.ncv, sizeof(a_int));
+    w.resid = phks__malloc_array(n, sizeof(double));
+    w.v = phks__malloc_array(n, (size_t)w.ncv * sizeof(double));
+    w.workd = phks__malloc_array(3 * n, sizeof(double));
+    w.workl = phks__malloc_array((size_t)w.lworkl, sizeof(double));
+    w.d = phks__malloc_array(k, sizeof(double));
+    w.select = phks__calloc((size_t)w.ncv, sizeof(a_int));
     if (!w.resid || !w.v || !w.workd || !w.workl || !w.d || !w.select) {
         release(&w);
-        return phks_fail_oom("ARPACK workspace");
+        return phks__fail_oom("ARPACK workspace");
     }
-    phks_random_fill(w.resid, n, 0x5DEECE66Dull);
+    phks__random_fill(w.resid, n, 0x5DEECE66Dull);
     a_int iparam[11] = {0}, ipntr[14] = {0};
     iparam[0] = 1;            /* exact shifts */
     iparam[2] = MAX_RESTARTS;
@@ -100,7 +100,7 @@ phks_status phks_eigen_arpack(const phks_operator_matrix *op, size_t k,
                  "SA", (a_int)k, opt->tolerance, w.resid, w.ncv, w.v, (a_int)n,
                  iparam, ipntr, w.workd, w.workl, w.lworkl, &info);
         if (info != 0)
-            st = phks_fail(PHKS_ERROR_SOLVER, "ARPACK dseupd: info %d", (int)info);
+            st = phks__fail(PHKS_ERROR_SOLVER, "ARPACK dseupd: info %d", (int)info);
     }
     pthread_mutex_unlock(&arpack_lock);
     if (st == PHKS_OK)

@@ -12,27 +12,27 @@
  * orders of magnitude anyway. */
 #define DENSE_MAX_N 16384
 
-phks_status phks_eigen_dense(const phks_operator_matrix *op, size_t k,
+phks_status phks__eigen_dense(const phks__operator_matrix *op, size_t k,
                              const phks_options *opt, double *values,
                              double *vectors)
 {
     size_t n = op->n;
     if (n > DENSE_MAX_N)
-        return phks_fail(PHKS_ERROR_TOO_LARGE,
+        return phks__fail(PHKS_ERROR_TOO_LARGE,
                          "dense eigen-solver: %zu vertices, more than %d", n,
                          DENSE_MAX_N);
-    double *a = phks_calloc(n * n, sizeof *a);
-    double *w = phks_malloc_array(n, sizeof *w);
-    lapack_int *support = phks_malloc_array(2 * k, sizeof *support);
+    double *a = phks__calloc(n * n, sizeof *a);
+    double *w = phks__malloc_array(n, sizeof *w);
+    lapack_int *support = phks__malloc_array(2 * k, sizeof *support);
     phks_status st = PHKS_OK;
     if (!a || !w || !support) {
-        st = phks_fail_oom("dense eigen-solver");
+        st = phks__fail_oom("dense eigen-solver");
         goto done;
     }
     for (size_t r = 0; r < n; r++)
         for (size_t i = op->row_start[r]; i < op->row_start[r + 1]; i++)
             a[op->col[i] * n + r] = op->val[i];
-    st = phks_progress(opt, PHKS_STAGE_EIGEN, 0);
+    st = phks__progress(opt, PHKS_STAGE_EIGEN, 0);
     if (st != PHKS_OK)
         goto done;
     lapack_int found = 0;
@@ -41,15 +41,15 @@ phks_status phks_eigen_dense(const phks_operator_matrix *op, size_t k,
                                      (lapack_int)k, 0, &found, w, vectors,
                                      (lapack_int)n, support);
     if (info != 0 || (size_t)found != k) {
-        st = phks_fail(PHKS_ERROR_SOLVER, "dense eigen-solver: dsyevr info %d",
+        st = phks__fail(PHKS_ERROR_SOLVER, "dense eigen-solver: dsyevr info %d",
                        (int)info);
         goto done;
     }
     memcpy(values, w, k * sizeof *values);
-    st = phks_progress(opt, PHKS_STAGE_EIGEN, 1);
+    st = phks__progress(opt, PHKS_STAGE_EIGEN, 1);
 done:
-    phks_free(a);
-    phks_free(w);
-    phks_free(support);
+    phks__free(a);
+    phks__free(w);
+    phks__free(support);
     return st;
 }

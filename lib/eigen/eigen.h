@@ -10,13 +10,13 @@
 /* ---- eigen-solvers (eigen_*.c): the k smallest eigenpairs of op's B.
  * values ascending (k), vectors column-major n x k, orthonormal in the
  * plain inner product. */
-phks_status phks_eigen_lanczos(const phks_operator_matrix *op, size_t k,
+phks_status phks__eigen_lanczos(const phks__operator_matrix *op, size_t k,
                                const phks_options *opt, double *values,
                                double *vectors);
-phks_status phks_eigen_arpack(const phks_operator_matrix *op, size_t k,
+phks_status phks__eigen_arpack(const phks__operator_matrix *op, size_t k,
                               const phks_options *opt, double *values,
                               double *vectors);
-phks_status phks_eigen_dense(const phks_operator_matrix *op, size_t k,
+phks_status phks__eigen_dense(const phks__operator_matrix *op, size_t k,
                              const phks_options *opt, double *values,
                              double *vectors);
 

@@ -56,7 +56,7 @@
 #include <math.h>
 #include <string.h>
 
-#define BLOCK PHKS_PAIR_BLOCK
+#define BLOCK PHKS__PAIR_BLOCK
 /* A new direction this much smaller than its norm before projection is
  * numerically in the span of the basis already. */
 #define BREAKDOWN 1e-12
@@ -92,7 +92,7 @@
 /* ---------------------------------------------------------------- kernel */
 
 typedef struct {
-    const phks_operator_pairs *pm;
+    const phks__operator_pairs *pm;
     bool avx2;
     const phks_options *opt;
     double fraction;        /* progress reported between products */
@@ -103,7 +103,7 @@ typedef struct {
 static void poly_step(const engine *e, const double *x, const double *z,
                       double *out, double alpha, double gamma, double beta)
 {
-    phks_operator_pairs_poly(e->pm, e->avx2, x, z, out, alpha, gamma, beta);
+    phks__operator_pairs_poly(e->pm, e->avx2, x, z, out, alpha, gamma, beta);
 }
 
 /* The filter p(B) = T_d((c I - B) / e) (degree 1 with c = 0, e = 1: -B,
@@ -150,13 +150,13 @@ static void to_cols_range(void *ctx, size_t begin, size_t end)
 static void to_rows(const engine *e, const double *cols, double *rows, size_t n)
 {
     transpose_ctx t = {cols, rows, n};
-    phks_parallel_for(n, e->pm->threads, to_rows_range, &t);
+    phks__parallel_for(n, e->pm->threads, to_rows_range, &t);
 }
 
 static void to_cols(const engine *e, const double *rows, double *cols, size_t n)
 {
     transpose_ctx t = {rows, cols, n};
-    phks_parallel_for(n, e->pm->threads, to_cols_range, &t);
+    phks__parallel_for(n, e->pm->threads, to_cols_range, &t);
 }
 
 /* p(B) in (column-major), left row-major in one of the three scratch blocks
@@ -171,7 +171,7 @@ static phks_status apply_filter_rows(const engine *e, const filter *f,
     double *prev = r[0], *cur = r[1], *spare = r[2];
     for (int d = 2; d <= f->degree; d++) {
         /* each product is a pass over the matrix: report between them */
-        phks_status st = phks_progress(e->opt, PHKS_STAGE_EIGEN, e->fraction);
+        phks_status st = phks__progress(e->opt, PHKS_STAGE_EIGEN, e->fraction);
         if (st != PHKS_OK)
             return st;
         /* T_{d} = 2 (c - B)/e T_{d-1} - T_{d-2} */
@@ -182,7 +182,7 @@ static phks_status apply_filter_rows(const engine *e, const filter *f,
         spare = t;
     }
     *result = cur;
-    return phks_progress(e->opt, PHKS_STAGE_EIGEN, e->fraction);
+    return phks__progress(e->opt, PHKS_STAGE_EIGEN, e->fraction);
 }
 
 /* out (column-major) = p(B) in (column-major). */
@@ -227,35 +227,35 @@ typedef struct {
 
 static void release(lanczos *L)
 {
-    phks_free(L->v);
-    phks_free(L->t);
-    phks_free(L->w);
-    phks_free(L->keep);
+    phks__free(L->v);
+    phks__free(L->t);
+    phks__free(L->w);
+    phks__free(L->keep);
     for (int i = 0; i < 3; i++)
-        phks_free(L->rows[i]);
-    phks_free(L->c);
-    phks_free(L->tau);
-    phks_free(L->ritz);
-    phks_free(L->theta);
-    phks_free(L->support);
-    phks_free(L->tfull);
-    phks_free(L->diag);
-    phks_free(L->off);
-    phks_free(L->diag_work);
-    phks_free(L->off_work);
-    phks_free(L->reflect);
-    phks_free(L->edge);
-    phks_free(L->gram_parts);
-    phks_free(L->saved);
-    phks_free(L->bottom);
+        phks__free(L->rows[i]);
+    phks__free(L->c);
+    phks__free(L->tau);
+    phks__free(L->ritz);
+    phks__free(L->theta);
+    phks__free(L->support);
+    phks__free(L->tfull);
+    phks__free(L->diag);
+    phks__free(L->off);
+    phks__free(L->diag_work);
+    phks__free(L->off_work);
+    phks__free(L->reflect);
+    phks__free(L->edge);
+    phks__free(L->gram_parts);
+    phks__free(L->saved);
+    phks__free(L->bottom);
     memset(L, 0, sizeof *L);
 }
 
 #define GROW(field, count)                                                   \
     do {                                                                     \
-        void *p_ = phks_realloc_array(L->field, (count), sizeof *L->field);  \
+        void *p_ = phks__realloc_array(L->field, (count), sizeof *L->field);  \
         if (!p_)                                                             \
-            return phks_fail_oom("Lanczos workspace");                       \
+            return phks__fail_oom("Lanczos workspace");                       \
         L->field = p_;                                                       \
     } while (0)
 
@@ -296,16 +296,16 @@ static phks_status reserve(lanczos *L, size_t columns)
 static phks_status allocate(lanczos *L, size_t first)
 {
     size_t n = L->n, b = L->b;
-    L->w = phks_malloc_array(n, b * sizeof(double));
-    L->keep = phks_malloc_array(n, b * sizeof(double));
+    L->w = phks__malloc_array(n, b * sizeof(double));
+    L->keep = phks__malloc_array(n, b * sizeof(double));
     for (int i = 0; i < 3; i++)
-        L->rows[i] = phks_malloc_array(n, b * sizeof(double));
-    L->tau = phks_malloc_array(b, sizeof(double));
-    L->gram_parts = phks_malloc_array(phks_block_gram_parts(n), b * b * sizeof(double));
-    L->saved = phks_malloc_array(n, b * sizeof(double));
+        L->rows[i] = phks__malloc_array(n, b * sizeof(double));
+    L->tau = phks__malloc_array(b, sizeof(double));
+    L->gram_parts = phks__malloc_array(phks__block_gram_parts(n), b * b * sizeof(double));
+    L->saved = phks__malloc_array(n, b * sizeof(double));
     if (!L->w || !L->keep || !L->rows[0] || !L->rows[1] || !L->rows[2] || !L->tau ||
         !L->gram_parts || !L->saved)
-        return phks_fail_oom("Lanczos workspace");
+        return phks__fail_oom("Lanczos workspace");
     return reserve(L, first < L->cap ? first : L->cap);
 }
 
@@ -319,7 +319,7 @@ static double norm2(size_t n, const double *x)
 /* A fixed pseudo-random block, so that every run starts alike. */
 static void random_block(double *w, size_t n, size_t b, uint64_t seed)
 {
-    phks_random_fill(w, n * b, seed * 0x9E3779B97F4A7C15ull + 1);
+    phks__random_fill(w, n * b, seed * 0x9E3779B97F4A7C15ull + 1);
 }
 
 /* One classical Gram-Schmidt pass of W against V[:, lo:m]; when col >= 0
@@ -347,7 +347,7 @@ static void project_rows(lanczos *L, const engine *e, size_t lo, size_t m,
                          double *wr, long col)
 {
     size_t n = L->n, b = L->b, cnt = m - lo;
-    phks_block_project(L->v + lo * n, n, cnt, wr, L->c, e->pm->threads, e->avx2);
+    phks__block_project(L->v + lo * n, n, cnt, wr, L->c, e->pm->threads, e->avx2);
     if (col >= 0)
         for (size_t j = 0; j < b; j++) {
             double *t = L->t + ((size_t)col + j) * L->room + lo;
@@ -411,7 +411,7 @@ static phks_status qr(lanczos *L, double *w, double *r, double *smallest)
     lapack_int info = LAPACKE_dgeqrf(LAPACK_COL_MAJOR, (lapack_int)n,
                                      (lapack_int)b, w, (lapack_int)n, L->tau);
     if (info != 0)
-        return phks_fail(PHKS_ERROR_SOLVER, "Lanczos: dgeqrf info %d", (int)info);
+        return phks__fail(PHKS_ERROR_SOLVER, "Lanczos: dgeqrf info %d", (int)info);
     double s = INFINITY;
     for (size_t j = 0; j < b; j++)
         for (size_t i = 0; i < b; i++) {
@@ -423,7 +423,7 @@ static phks_status qr(lanczos *L, double *w, double *r, double *smallest)
     info = LAPACKE_dorgqr(LAPACK_COL_MAJOR, (lapack_int)n, (lapack_int)b,
                           (lapack_int)b, w, (lapack_int)n, L->tau);
     if (info != 0)
-        return phks_fail(PHKS_ERROR_SOLVER, "Lanczos: dorgqr info %d", (int)info);
+        return phks__fail(PHKS_ERROR_SOLVER, "Lanczos: dorgqr info %d", (int)info);
     *smallest = big > 0 ? s / big : 0;
     return PHKS_OK;
 }
@@ -486,11 +486,11 @@ static bool cholesky_qr(lanczos *L, const engine *e, double *wr, double *r)
     double g[BLOCK * BLOCK], r1[BLOCK * BLOCK], r2[BLOCK * BLOCK];
     for (int pass = 0; pass < 2; pass++) {
         double *f = pass == 0 ? r1 : r2;
-        phks_block_gram(wr, L->n, L->gram_parts, g, e->pm->threads, e->avx2);
+        phks__block_gram(wr, L->n, L->gram_parts, g, e->pm->threads, e->avx2);
         if (!cholesky(g, f, b))
             return false;
         upper_inverse(f, g, b);
-        phks_block_times_upper(wr, L->n, g, e->pm->threads, e->avx2);
+        phks__block_times_upper(wr, L->n, g, e->pm->threads, e->avx2);
     }
     for (size_t j = 0; j < b; j++)
         for (size_t i = 0; i < b; i++) {
@@ -549,7 +549,7 @@ static phks_status reduce_t(lanczos *L, size_t m)
                                      L->tfull, (lapack_int)m, L->diag, L->off,
                                      L->reflect);
     if (info != 0)
-        return phks_fail(PHKS_ERROR_SOLVER, "Lanczos: dsytrd info %d", (int)info);
+        return phks__fail(PHKS_ERROR_SOLVER, "Lanczos: dsytrd info %d", (int)info);
     memset(L->edge, 0, m * b * sizeof(double));
     for (size_t j = 0; j < b; j++)
         L->edge[j * m + m - b + j] = 1;
@@ -557,7 +557,7 @@ static phks_status reduce_t(lanczos *L, size_t m)
                           (lapack_int)b, L->tfull, (lapack_int)m, L->reflect,
                           L->edge, (lapack_int)m);
     if (info != 0)
-        return phks_fail(PHKS_ERROR_SOLVER, "Lanczos: dormtr info %d", (int)info);
+        return phks__fail(PHKS_ERROR_SOLVER, "Lanczos: dormtr info %d", (int)info);
     return PHKS_OK;
 }
 
@@ -587,7 +587,7 @@ static phks_status pairs_t(lanczos *L, size_t m, size_t il, size_t iu,
         L->theta, L->ritz, (lapack_int)m, (lapack_int)(all ? m : count),
         L->support, &tryrac);
     if (info != 0 || (size_t)found != (all ? m : count))
-        return phks_fail(PHKS_ERROR_SOLVER, "Lanczos: dstemr info %d", (int)info);
+        return phks__fail(PHKS_ERROR_SOLVER, "Lanczos: dstemr info %d", (int)info);
     if (all) {
         memmove(L->theta, L->theta + (il - 1), count * sizeof(double));
         memmove(L->ritz, L->ritz + (il - 1) * m, count * m * sizeof(double));
@@ -622,7 +622,7 @@ static phks_status ritz_vectors(lanczos *L, size_t m, size_t first, size_t count
                                      (lapack_int)m, (lapack_int)count, L->tfull,
                                      (lapack_int)m, L->reflect, s, (lapack_int)m);
     if (info != 0)
-        return phks_fail(PHKS_ERROR_SOLVER, "Lanczos: dormtr info %d", (int)info);
+        return phks__fail(PHKS_ERROR_SOLVER, "Lanczos: dormtr info %d", (int)info);
     /* the Gram matrix goes where T's reduction was: it is not needed now */
     double *gram = L->tfull;
     cblas_dsyrk(CblasColMajor, CblasUpper, CblasTrans, (int)count, (int)m, 1.0, s,
@@ -630,7 +630,7 @@ static phks_status ritz_vectors(lanczos *L, size_t m, size_t first, size_t count
     info = LAPACKE_dpotrf(LAPACK_COL_MAJOR, 'U', (lapack_int)count, gram,
                           (lapack_int)count);
     if (info != 0)
-        return phks_fail(PHKS_ERROR_SOLVER, "Lanczos: dpotrf info %d", (int)info);
+        return phks__fail(PHKS_ERROR_SOLVER, "Lanczos: dpotrf info %d", (int)info);
     cblas_dtrsm(CblasColMajor, CblasRight, CblasUpper, CblasNoTrans, CblasNonUnit,
                 (int)m, (int)count, 1.0, gram, (int)count, s, (int)m);
     return PHKS_OK;
@@ -804,12 +804,12 @@ static phks_status ritz_pairs(lanczos *L, const engine *eng, const filter *f,
 {
     size_t n = L->n;
     phks_status st = PHKS_OK;
-    double *s = phks_malloc_array(m, k * sizeof(double));
-    double *g = phks_malloc_array(k, 2 * SKETCH * sizeof(double));
-    double *y = phks_malloc_array(n, 2 * SKETCH * sizeof(double));
-    double *by = phks_malloc_array(n, SKETCH * sizeof(double));
+    double *s = phks__malloc_array(m, k * sizeof(double));
+    double *g = phks__malloc_array(k, 2 * SKETCH * sizeof(double));
+    double *y = phks__malloc_array(n, 2 * SKETCH * sizeof(double));
+    double *by = phks__malloc_array(n, SKETCH * sizeof(double));
     if (!s || !g || !y || !by) {
-        st = phks_fail_oom("Lanczos Ritz pairs");
+        st = phks__fail_oom("Lanczos Ritz pairs");
         goto done;
     }
     /* the top k, theta ascending, in columns 0 .. k - 1 of ritz (theta[q -
@@ -823,15 +823,15 @@ static phks_status ritz_pairs(lanczos *L, const engine *eng, const filter *f,
         if (e > 0 && values[e] < values[e - 1])
             values[e] = values[e - 1];
     }
-    st = phks_ritz_product(L->v, n, m, s, k, vectors, eng->pm->threads, eng->avx2);
+    st = phks__ritz_product(L->v, n, m, s, k, vectors, eng->pm->threads, eng->avx2);
     if (st != PHKS_OK)
         goto done;
     /* G (k x SKETCH) and Lambda G beside it; Y = X [G, Lambda G] */
-    phks_random_fill(g, k * SKETCH, 0x5EEDull);
+    phks__random_fill(g, k * SKETCH, 0x5EEDull);
     for (size_t j = 0; j < SKETCH; j++)
         for (size_t e = 0; e < k; e++)
             g[(SKETCH + j) * k + e] = values[e] * g[j * k + e];
-    st = phks_ritz_product(vectors, n, k, g, 2 * SKETCH, y, eng->pm->threads,
+    st = phks__ritz_product(vectors, n, k, g, 2 * SKETCH, y, eng->pm->threads,
                            eng->avx2);
     if (st != PHKS_OK)
         goto done;
@@ -847,10 +847,10 @@ static phks_status ritz_pairs(lanczos *L, const engine *eng, const filter *f,
     }
     *worst = sqrt(SKETCH_FACTOR * sum);
 done:
-    phks_free(s);
-    phks_free(g);
-    phks_free(y);
-    phks_free(by);
+    phks__free(s);
+    phks__free(g);
+    phks__free(y);
+    phks__free(by);
     return st;
 }
 
@@ -864,16 +864,16 @@ static phks_status rayleigh_ritz(lanczos *L, const engine *eng, size_t m,
     size_t n = L->n, b = L->b;
     size_t qb = (q + b - 1) / b * b; /* padded to whole blocks */
     phks_status st = PHKS_OK;
-    double *y = phks_malloc_array(n, qb * sizeof(double));
-    double *by = phks_malloc_array(n, qb * sizeof(double));
-    double *g = phks_malloc_array(qb, qb * sizeof(double));
-    double *gv = phks_malloc_array(qb, sizeof(double));
+    double *y = phks__malloc_array(n, qb * sizeof(double));
+    double *by = phks__malloc_array(n, qb * sizeof(double));
+    double *g = phks__malloc_array(qb, qb * sizeof(double));
+    double *gv = phks__malloc_array(qb, sizeof(double));
     if (!y || !by || !g || !gv) {
-        st = phks_fail_oom("Lanczos Rayleigh-Ritz");
+        st = phks__fail_oom("Lanczos Rayleigh-Ritz");
         goto done;
     }
     /* Ritz vectors of the top q (theta ascending: the last q columns) */
-    st = phks_ritz_product(L->v, n, m, L->ritz, q, y, eng->pm->threads, eng->avx2);
+    st = phks__ritz_product(L->v, n, m, L->ritz, q, y, eng->pm->threads, eng->avx2);
     if (st != PHKS_OK)
         goto done;
     if (qb > q)
@@ -888,7 +888,7 @@ static phks_status rayleigh_ritz(lanczos *L, const engine *eng, size_t m,
     }
     cblas_dgemm(CblasColMajor, CblasTrans, CblasNoTrans, (int)q, (int)q, (int)n,
                 1.0, y, (int)n, by, (int)n, 0.0, g, (int)q);
-    st = phks_progress(eng->opt, PHKS_STAGE_EIGEN, eng->fraction);
+    st = phks__progress(eng->opt, PHKS_STAGE_EIGEN, eng->fraction);
     if (st != PHKS_OK)
         goto done;
     for (size_t j = 0; j < q; j++) /* symmetrise */
@@ -899,16 +899,16 @@ static phks_status rayleigh_ritz(lanczos *L, const engine *eng, size_t m,
     lapack_int info = LAPACKE_dsyevd(LAPACK_COL_MAJOR, 'V', 'U', (lapack_int)q, g,
                                      (lapack_int)q, gv);
     if (info != 0) {
-        st = phks_fail(PHKS_ERROR_SOLVER, "Lanczos: dsyevd info %d", (int)info);
+        st = phks__fail(PHKS_ERROR_SOLVER, "Lanczos: dsyevd info %d", (int)info);
         goto done;
     }
-    st = phks_ritz_product(y, n, q, g, k, vectors, eng->pm->threads, eng->avx2);
+    st = phks__ritz_product(y, n, q, g, k, vectors, eng->pm->threads, eng->avx2);
     if (st == PHKS_OK)
-        st = phks_progress(eng->opt, PHKS_STAGE_EIGEN, eng->fraction);
+        st = phks__progress(eng->opt, PHKS_STAGE_EIGEN, eng->fraction);
     if (st != PHKS_OK)
         goto done;
     /* residuals: B X - X Theta = (B Y) G_k - X Theta, into y */
-    st = phks_ritz_product(by, n, q, g, k, y, eng->pm->threads, eng->avx2);
+    st = phks__ritz_product(by, n, q, g, k, y, eng->pm->threads, eng->avx2);
     if (st != PHKS_OK)
         goto done;
     double w = 0;
@@ -924,10 +924,10 @@ static phks_status rayleigh_ritz(lanczos *L, const engine *eng, size_t m,
     }
     *worst = w;
 done:
-    phks_free(y);
-    phks_free(by);
-    phks_free(g);
-    phks_free(gv);
+    phks__free(y);
+    phks__free(by);
+    phks__free(g);
+    phks__free(gv);
     return st;
 }
 
@@ -1025,7 +1025,7 @@ static phks_status solve(engine *eng, const filter *f, size_t k,
             double excess = INFINITY;
             st = check(&L, r, m, q, k, strict * opt->tolerance, &excess);
             if (st == PHKS_OK)
-                st = phks_progress(opt, PHKS_STAGE_EIGEN, eng->fraction);
+                st = phks__progress(opt, PHKS_STAGE_EIGEN, eng->fraction);
             if (st != PHKS_OK)
                 break;
             bool ok = excess <= 0;
@@ -1124,7 +1124,7 @@ static phks_status solve_all(engine *eng, size_t k, size_t guard,
                  vectors, &cut_low);
 }
 
-phks_status phks_eigen_lanczos(const phks_operator_matrix *op, size_t k,
+phks_status phks__eigen_lanczos(const phks__operator_matrix *op, size_t k,
                                const phks_options *opt, double *values,
                                double *vectors)
 {
@@ -1139,32 +1139,32 @@ phks_status phks_eigen_lanczos(const phks_operator_matrix *op, size_t k,
         cap = usable - b;
     if (n < 8 * b || cap < k + guard + 4 * b ||
         (PROBE_STEPS + 1) * b > usable)
-        return phks_eigen_dense(op, k, opt, values, vectors);
-    phks_operator_pairs pm;
-    phks_status st = phks_operator_pairs_build(op, phks_thread_count(opt), &pm);
+        return phks__eigen_dense(op, k, opt, values, vectors);
+    phks__operator_pairs pm;
+    phks_status st = phks__operator_pairs_build(op, phks__thread_count(opt), &pm);
     if (st != PHKS_OK)
         return st;
-    engine eng = {&pm, phks_cpu_avx2(), opt, 0};
+    engine eng = {&pm, phks__cpu_avx2(), opt, 0};
     st = solve_all(&eng, k, guard, cap, op->norm_bound, opt, values, vectors);
     if (st == PHKS_OK) {
         /* back to the operator's numbering */
-        double *column = phks_malloc_array(n, sizeof *column);
+        double *column = phks__malloc_array(n, sizeof *column);
         if (!column)
-            st = phks_fail_oom("Lanczos");
+            st = phks__fail_oom("Lanczos");
         for (size_t e = 0; e < k && st == PHKS_OK; e++) {
             double *x = vectors + e * n;
             memcpy(column, x, n * sizeof *column);
             for (size_t r = 0; r < n; r++)
                 x[pm.order[r]] = column[r];
         }
-        phks_free(column);
+        phks__free(column);
     }
-    phks_operator_pairs_release(&pm);
+    phks__operator_pairs_release(&pm);
     /* Not expected on meshes; the dense solver is exact where it fits. */
     if (st == PHKS_ERROR_NO_CONVERGENCE && n <= DENSE_FALLBACK_MAX_N)
-        return phks_eigen_dense(op, k, opt, values, vectors);
+        return phks__eigen_dense(op, k, opt, values, vectors);
     if (st == PHKS_ERROR_NO_CONVERGENCE)
-        return phks_fail(PHKS_ERROR_NO_CONVERGENCE,
+        return phks__fail(PHKS_ERROR_NO_CONVERGENCE,
                          "Lanczos: no convergence with a basis of %zu vectors",
                          cap);
     return st;

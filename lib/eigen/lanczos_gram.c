@@ -1,6 +1,6 @@
 /*
  * block_project.c - the Gram-Schmidt products of the eigen-solver: a block
- * W of PHKS_PAIR_BLOCK vectors (row-major, as the operator products leave
+ * W of PHKS__PAIR_BLOCK vectors (row-major, as the operator products leave
  * it) against a basis V of cnt vectors (column-major):
  *     C = V^T W,   W -= V C.
  * With W 16 vectors wide these are thin matrix products that spend much
@@ -16,7 +16,7 @@
 
 #include <string.h>
 
-#define B PHKS_PAIR_BLOCK
+#define B PHKS__PAIR_BLOCK
 /* Rows of W per stretch in W -= V C: 128 rows of 16 doubles are 16 KB,
  * which stay in the first-level cache while every column of V passes. */
 #define STRETCH 128
@@ -55,7 +55,7 @@ static void coef_generic(const project_ctx *p, size_t j0, size_t j1)
     }
 }
 
-#if PHKS_HAVE_AVX2
+#if PHKS__HAVE_AVX2
 __attribute__((target("avx2,fma"))) static void coef_avx2(const project_ctx *p,
                                                            size_t j0, size_t j1)
 {
@@ -106,7 +106,7 @@ static void coef_range(void *ctx, size_t begin, size_t end)
     const project_ctx *p = ctx;
     /* units are quads of columns; the last may be shorter */
     size_t j0 = 4 * begin, j1 = 4 * end < p->cnt ? 4 * end : p->cnt;
-#if PHKS_HAVE_AVX2
+#if PHKS__HAVE_AVX2
     if (p->avx2) {
         size_t full = j0 + (j1 - j0) / 4 * 4;
         coef_avx2(p, j0, full);
@@ -131,7 +131,7 @@ static void subtract_generic(const project_ctx *p, size_t r0, size_t r1,
     }
 }
 
-#if PHKS_HAVE_AVX2
+#if PHKS__HAVE_AVX2
 __attribute__((target("avx2,fma"))) static void subtract_avx2(const project_ctx *p,
                                                                size_t r0, size_t r1,
                                                                size_t cnt)
@@ -174,7 +174,7 @@ static void subtract_range(void *ctx, size_t begin, size_t end)
     /* units are stretches of rows */
     for (size_t s = begin; s < end; s++) {
         size_t r0 = s * STRETCH, r1 = r0 + STRETCH < p->n ? r0 + STRETCH : p->n;
-#if PHKS_HAVE_AVX2
+#if PHKS__HAVE_AVX2
         if (p->avx2) {
             size_t full = p->cnt / 4 * 4;
             subtract_avx2(p, r0, r1, full);
@@ -186,12 +186,12 @@ static void subtract_range(void *ctx, size_t begin, size_t end)
     }
 }
 
-void phks_block_project(const double *v, size_t n, size_t cnt, double *w,
+void phks__block_project(const double *v, size_t n, size_t cnt, double *w,
                         double *c, unsigned threads, bool avx2)
 {
     project_ctx p = {v, n, cnt, w, w, c, c, avx2};
-    phks_parallel_for((cnt + 3) / 4, threads, coef_range, &p);
-    phks_parallel_for((n + STRETCH - 1) / STRETCH, threads, subtract_range, &p);
+    phks__parallel_for((cnt + 3) / 4, threads, coef_range, &p);
+    phks__parallel_for((n + STRETCH - 1) / STRETCH, threads, subtract_range, &p);
 }
 
 /* ------------------------------------------------ Gram matrix, solve */
@@ -217,7 +217,7 @@ static void gram_generic(const double *w, size_t r0, size_t r1, double *part)
                 part[a * B + c] += w[i * B + a] * w[i * B + c];
 }
 
-#if PHKS_HAVE_AVX2
+#if PHKS__HAVE_AVX2
 /* Two rows of the Gram matrix at a time, over the stretch's rows (which
  * stay in the second-level cache between the eight sweeps). */
 __attribute__((target("avx2,fma"))) static void gram_avx2(const double *w,
@@ -262,7 +262,7 @@ static void gram_range(void *ctx, size_t begin, size_t end)
         double *part = g->parts + s * B * B;
         size_t r0 = s * GRAM_STRETCH;
         size_t r1 = r0 + GRAM_STRETCH < g->n ? r0 + GRAM_STRETCH : g->n;
-#if PHKS_HAVE_AVX2
+#if PHKS__HAVE_AVX2
         if (g->avx2) {
             gram_avx2(g->w, r0, r1, part);
             continue;
@@ -273,17 +273,17 @@ static void gram_range(void *ctx, size_t begin, size_t end)
     }
 }
 
-size_t phks_block_gram_parts(size_t n)
+size_t phks__block_gram_parts(size_t n)
 {
     return (n + GRAM_STRETCH - 1) / GRAM_STRETCH;
 }
 
-void phks_block_gram(const double *w, size_t n, double *parts, double *g,
+void phks__block_gram(const double *w, size_t n, double *parts, double *g,
                      unsigned threads, bool avx2)
 {
     gram_ctx c = {w, NULL, n, parts, NULL, avx2};
-    size_t count = phks_block_gram_parts(n);
-    phks_parallel_for(count, threads, gram_range, &c);
+    size_t count = phks__block_gram_parts(n);
+    phks__parallel_for(count, threads, gram_range, &c);
     memset(g, 0, B * B * sizeof(double));
     for (size_t s = 0; s < count; s++)
         for (size_t i = 0; i < B * B; i++)
@@ -301,7 +301,7 @@ static void times_generic(const gram_ctx *g, size_t r0, size_t r1)
     }
 }
 
-#if PHKS_HAVE_AVX2
+#if PHKS__HAVE_AVX2
 __attribute__((target("avx2,fma"))) static void times_avx2(const gram_ctx *g,
                                                             size_t r0, size_t r1)
 {
@@ -332,7 +332,7 @@ __attribute__((target("avx2,fma"))) static void times_avx2(const gram_ctx *g,
 static void times_range(void *ctx, size_t begin, size_t end)
 {
     const gram_ctx *g = ctx;
-#if PHKS_HAVE_AVX2
+#if PHKS__HAVE_AVX2
     if (g->avx2) {
         times_avx2(g, begin, end);
         return;
@@ -341,9 +341,9 @@ static void times_range(void *ctx, size_t begin, size_t end)
     times_generic(g, begin, end);
 }
 
-void phks_block_times_upper(double *w, size_t n, const double *inv,
+void phks__block_times_upper(double *w, size_t n, const double *inv,
                             unsigned threads, bool avx2)
 {
     gram_ctx c = {NULL, w, n, NULL, inv, avx2};
-    phks_parallel_for(n, threads, times_range, &c);
+    phks__parallel_for(n, threads, times_range, &c);
 }

@@ -2,7 +2,7 @@
  * operator_pairs.c - the operator laid out for fast products on blocks of
  * vectors: the eigen-solver's hot loop.
  *
- * A product of B with a block of PHKS_PAIR_BLOCK vectors (row-major, one
+ * A product of B with a block of PHKS__PAIR_BLOCK vectors (row-major, one
  * row of the block per point) reads, for every non-zero B_wp, the block's
  * row p: 128 bytes, from the second-level cache at best. That load, not the
  * arithmetic, bounds the CSR product. Two points close in space have almost
@@ -29,21 +29,21 @@
 
 #include <string.h>
 
-#define B PHKS_PAIR_BLOCK
+#define B PHKS__PAIR_BLOCK
 
-void phks_operator_pairs_release(phks_operator_pairs *pm)
+void phks__operator_pairs_release(phks__operator_pairs *pm)
 {
-    phks_free(pm->order);
-    phks_free(pm->start);
-    phks_free(pm->col);
-    phks_free(pm->col16);
-    phks_free(pm->val);
+    phks__free(pm->order);
+    phks__free(pm->start);
+    phks__free(pm->col);
+    phks__free(pm->col16);
+    phks__free(pm->val);
     memset(pm, 0, sizeof *pm);
 }
 
 typedef struct {
-    const phks_operator_matrix *op;
-    phks_operator_pairs *pm;
+    const phks__operator_matrix *op;
+    phks__operator_pairs *pm;
     const uint32_t *rank;   /* inverse of pm->order                       */
     bool fill;
 } pairs_ctx;
@@ -51,12 +51,12 @@ typedef struct {
 /* Largest point count whose columns fit in 16 bits. */
 #define NARROW_MAX 65536
 
-static size_t column(const phks_operator_pairs *pm, size_t e)
+static size_t column(const phks__operator_pairs *pm, size_t e)
 {
     return pm->col16 ? pm->col16[e] : pm->col[e];
 }
 
-static void set_column(phks_operator_pairs *pm, size_t e, uint32_t col)
+static void set_column(phks__operator_pairs *pm, size_t e, uint32_t col)
 {
     if (pm->col16)
         pm->col16[e] = (uint16_t)col;
@@ -70,8 +70,8 @@ static void set_column(phks_operator_pairs *pm, size_t e, uint32_t col)
  * entry and exit) holds the entry of column c in the current pair. */
 static void pair_rows(const pairs_ctx *c, size_t lo, size_t hi, size_t *mark)
 {
-    const phks_operator_matrix *op = c->op;
-    phks_operator_pairs *pm = c->pm;
+    const phks__operator_matrix *op = c->op;
+    phks__operator_pairs *pm = c->pm;
     for (size_t g = lo; g < hi; g++) {
         size_t at = c->fill ? pm->start[g] : 0, first = at;
         for (int r = 0; r < 2 && 2 * g + (size_t)r < pm->n; r++) {
@@ -123,7 +123,7 @@ static void pair_chunk(void *ctx, size_t begin, size_t end)
 }
 
 /* Splits the pairs into `parts` ranges of about equal entry counts. */
-static void balance(phks_operator_pairs *pm)
+static void balance(phks__operator_pairs *pm)
 {
     size_t total = pm->start[pm->pairs];
     size_t g = 0;
@@ -137,30 +137,30 @@ static void balance(phks_operator_pairs *pm)
     pm->bound[pm->parts] = pm->pairs;
 }
 
-phks_status phks_operator_pairs_build(const phks_operator_matrix *op,
-                                      unsigned threads, phks_operator_pairs *pm)
+phks_status phks__operator_pairs_build(const phks__operator_matrix *op,
+                                      unsigned threads, phks__operator_pairs *pm)
 {
     memset(pm, 0, sizeof *pm);
     size_t n = op->n;
     if (threads < 1)
         threads = 1;
-    if (threads > PHKS_PAIR_MAX_THREADS)
-        threads = PHKS_PAIR_MAX_THREADS;
+    if (threads > PHKS__PAIR_MAX_THREADS)
+        threads = PHKS__PAIR_MAX_THREADS;
     pm->n = n;
     pm->pairs = (n + 1) / 2;
     pm->threads = threads;
-    pm->parts = threads * PHKS_PAIR_PARTS_PER_THREAD;
-    pm->order = phks_malloc_array(n, sizeof *pm->order);
-    pm->start = phks_calloc(pm->pairs + 1, sizeof *pm->start);
-    uint32_t *rank = phks_malloc_array(n, sizeof *rank);
-    size_t *marks[PHKS_PAIR_MAX_THREADS] = {NULL};
+    pm->parts = threads * PHKS__PAIR_PARTS_PER_THREAD;
+    pm->order = phks__malloc_array(n, sizeof *pm->order);
+    pm->start = phks__calloc(pm->pairs + 1, sizeof *pm->start);
+    uint32_t *rank = phks__malloc_array(n, sizeof *rank);
+    size_t *marks[PHKS__PAIR_MAX_THREADS] = {NULL};
     phks_status st = PHKS_OK;
     if (!pm->order || !pm->start || !rank)
-        st = phks_fail_oom("operator pairs");
+        st = phks__fail_oom("operator pairs");
     for (unsigned t = 0; t < threads && st == PHKS_OK; t++) {
-        marks[t] = phks_malloc_array(n, sizeof *marks[t]);
+        marks[t] = phks__malloc_array(n, sizeof *marks[t]);
         if (!marks[t])
-            st = phks_fail_oom("operator pairs");
+            st = phks__fail_oom("operator pairs");
         else
             memset(marks[t], 0xff, n * sizeof *marks[t]);
     }
@@ -172,35 +172,35 @@ phks_status phks_operator_pairs_build(const phks_operator_matrix *op,
     }
     pairs_ctx c = {op, pm, rank, false};
     pairs_job job = {&c, marks, pm->pairs, threads};
-    phks_parallel_for(threads, threads, pair_chunk, &job);
+    phks__parallel_for(threads, threads, pair_chunk, &job);
     for (size_t g = 0; g < pm->pairs; g++)
         pm->start[g + 1] += pm->start[g];
     size_t entries = pm->start[pm->pairs];
     if (n <= NARROW_MAX)
-        pm->col16 = phks_malloc_array(entries, sizeof *pm->col16);
+        pm->col16 = phks__malloc_array(entries, sizeof *pm->col16);
     else
-        pm->col = phks_malloc_array(entries, sizeof *pm->col);
-    pm->val = phks_malloc_array(entries, 2 * sizeof *pm->val);
+        pm->col = phks__malloc_array(entries, sizeof *pm->col);
+    pm->val = phks__malloc_array(entries, 2 * sizeof *pm->val);
     if ((!pm->col && !pm->col16) || !pm->val) {
-        st = phks_fail_oom("operator pairs");
+        st = phks__fail_oom("operator pairs");
         goto done;
     }
     c.fill = true;
-    phks_parallel_for(threads, threads, pair_chunk, &job);
+    phks__parallel_for(threads, threads, pair_chunk, &job);
     balance(pm);
 done:
-    phks_free(rank);
+    phks__free(rank);
     for (unsigned t = 0; t < threads; t++)
-        phks_free(marks[t]);
+        phks__free(marks[t]);
     if (st != PHKS_OK)
-        phks_operator_pairs_release(pm);
+        phks__operator_pairs_release(pm);
     return st;
 }
 
 /* ---------------------------------------------------------------- kernels */
 
 typedef struct {
-    const phks_operator_pairs *pm;
+    const phks__operator_pairs *pm;
     const double *x, *z;
     double *out;
     double alpha, gamma, beta;
@@ -227,7 +227,7 @@ static void finish_pair(const poly_ctx *p, size_t g, double acc[2][B])
 static void poly_generic(void *ctx, size_t begin, size_t end)
 {
     const poly_ctx *p = ctx;
-    const phks_operator_pairs *pm = p->pm;
+    const phks__operator_pairs *pm = p->pm;
     for (size_t t = begin; t < end; t++)
         for (size_t g = pm->bound[t]; g < pm->bound[t + 1]; g++) {
             double acc[2][B] = {{0}};
@@ -243,14 +243,14 @@ static void poly_generic(void *ctx, size_t begin, size_t end)
         }
 }
 
-#if PHKS_HAVE_AVX2
+#if PHKS__HAVE_AVX2
 /* The AVX2 kernel, compiled once for each width of the column indices
  * (exactly one of col16, col32 is not NULL). */
 __attribute__((target("avx2,fma"), always_inline)) static inline void
 poly_avx2_body(const poly_ctx *p, size_t begin, size_t end,
                const uint16_t *col16, const uint32_t *col32)
 {
-    const phks_operator_pairs *pm = p->pm;
+    const phks__operator_pairs *pm = p->pm;
     const __m256d alpha = _mm256_set1_pd(p->alpha), gamma = _mm256_set1_pd(p->gamma),
                   beta = _mm256_set1_pd(p->beta);
     for (size_t t = begin; t < end; t++)
@@ -306,19 +306,19 @@ __attribute__((target("avx2,fma"))) static void poly_avx2_wide(void *ctx,
 }
 #endif
 
-void phks_operator_pairs_poly(const phks_operator_pairs *pm, bool avx2,
+void phks__operator_pairs_poly(const phks__operator_pairs *pm, bool avx2,
                               const double *x, const double *z, double *out,
                               double alpha, double gamma, double beta)
 {
     poly_ctx p = {pm, x, z, out, alpha, gamma, beta};
-#if PHKS_HAVE_AVX2
+#if PHKS__HAVE_AVX2
     if (avx2) {
-        phks_parallel_for(pm->parts, pm->threads,
+        phks__parallel_for(pm->parts, pm->threads,
                           pm->col16 ? poly_avx2_narrow : poly_avx2_wide, &p);
         return;
     }
 #else
     (void)avx2;
 #endif
-    phks_parallel_for(pm->parts, pm->threads, poly_generic, &p);
+    phks__parallel_for(pm->parts, pm->threads, poly_generic, &p);
 }

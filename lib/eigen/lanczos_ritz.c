@@ -31,7 +31,7 @@ typedef struct {
     const double *v, *spack;
     double *x;
     size_t n, m, k, panels;
-    double *vpack[PHKS_PAIR_MAX_THREADS * UNITS_PER_THREAD]; /* one per unit */
+    double *vpack[PHKS__PAIR_MAX_THREADS * UNITS_PER_THREAD]; /* one per unit */
     size_t units;
     bool avx2;
 } product_ctx;
@@ -71,7 +71,7 @@ static void tile_generic(size_t m, const double *vs, const double *sp, double *a
                 acc[c * MR + i] += vs[j * MR + i] * sp[j * NR + c];
 }
 
-#if PHKS_HAVE_AVX2
+#if PHKS__HAVE_AVX2
 __attribute__((target("avx2,fma"))) static void tile_avx2(size_t m, const double *vs,
                                                            const double *sp,
                                                            double *acc)
@@ -131,7 +131,7 @@ static void product_range(void *ctx, size_t begin, size_t end)
                 for (size_t g = 0; g < slivers; g++) {
                     double acc[MR * NR];
                     const double *vs = vp + g * MR * p->m, *sp = p->spack + panel * NR * p->m;
-#if PHKS_HAVE_AVX2
+#if PHKS__HAVE_AVX2
                     if (p->avx2)
                         tile_avx2(p->m, vs, sp, acc);
                     else
@@ -144,22 +144,22 @@ static void product_range(void *ctx, size_t begin, size_t end)
     }
 }
 
-phks_status phks_ritz_product(const double *v, size_t n, size_t m, const double *s,
+phks_status phks__ritz_product(const double *v, size_t n, size_t m, const double *s,
                               size_t k, double *x, unsigned threads, bool avx2)
 {
     if (threads < 1)
         threads = 1;
-    if (threads > PHKS_PAIR_MAX_THREADS)
-        threads = PHKS_PAIR_MAX_THREADS;
+    if (threads > PHKS__PAIR_MAX_THREADS)
+        threads = PHKS__PAIR_MAX_THREADS;
     product_ctx p = {v, NULL, x, n, m, k, (k + NR - 1) / NR, {NULL},
                      (size_t)threads * UNITS_PER_THREAD, avx2};
     phks_status st = PHKS_OK;
-    double *spack = phks_malloc_array(p.panels * NR, m * sizeof(double));
+    double *spack = phks__malloc_array(p.panels * NR, m * sizeof(double));
     for (size_t t = 0; t < p.units && spack; t++)
-        if (!(p.vpack[t] = phks_malloc_array(STRETCH, m * sizeof(double))))
-            st = phks_fail_oom("Ritz vectors");
+        if (!(p.vpack[t] = phks__malloc_array(STRETCH, m * sizeof(double))))
+            st = phks__fail_oom("Ritz vectors");
     if (!spack)
-        st = phks_fail_oom("Ritz vectors");
+        st = phks__fail_oom("Ritz vectors");
     if (st == PHKS_OK) {
         for (size_t panel = 0; panel < p.panels; panel++)
             for (size_t j = 0; j < m; j++)
@@ -168,10 +168,10 @@ phks_status phks_ritz_product(const double *v, size_t n, size_t m, const double 
                     spack[(panel * m + j) * NR + c] = col < k ? s[col * m + j] : 0;
                 }
         p.spack = spack;
-        phks_parallel_for(p.units, threads, product_range, &p);
+        phks__parallel_for(p.units, threads, product_range, &p);
     }
-    phks_free(spack);
+    phks__free(spack);
     for (size_t t = 0; t < p.units; t++)
-        phks_free(p.vpack[t]);
+        phks__free(p.vpack[t]);
     return st;
 }

@@ -15,7 +15,7 @@
  * depends on the mesh and f alone), and returns PHKS_ERROR_CANCELLED,
  * everything freed and *count 0, when the callback asks. The results are
  * those of phks_persistent_maxima, bit for bit. */
-phks_status phks_persistence_run(const phks_mesh *mesh, const double *f,
+phks_status phks__persistence_run(const phks_mesh *mesh, const double *f,
                                  size_t max_count, double threshold,
                                  phks_maximum *out, size_t *count,
                                  uint32_t *region_of_triangle,
@@ -25,7 +25,7 @@ phks_status phks_persistence_run(const phks_mesh *mesh, const double *f,
 /* ---- signature (signature.c, signature_codec.c, score.c) */
 struct phks_signature {
     phks_options options;  /* what shaped the numbers; see
-                              phks_signature_compatible                 */
+                              phks__options_comparable                   */
     size_t count, length;  /* features, vector length (scale_count)    */
     uint32_t *vertex;      /* count                                     */
     double *position;      /* 3 * count, input coordinates              */
@@ -34,10 +34,10 @@ struct phks_signature {
 };
 
 /* An empty signature with room for count features of length values. */
-phks_status phks_signature_alloc(size_t count, size_t length,
+phks_status phks__signature_alloc(size_t count, size_t length,
                                  phks_signature **out);
 /* True when two option sets give comparable signatures: every field that
  * changes the numbers is equal (not the solver, threads or callbacks). */
-bool phks_options_comparable(const phks_options *a, const phks_options *b);
+bool phks__options_comparable(const phks_options *a, const phks_options *b);
 
 #endif /* PHKS_FEATURES_H */

@@ -71,7 +71,7 @@
  * per boundary-edge side after the sweep (few for smooth functions, at
  * most 48 per triangle). On a 3.2M-triangle mesh: about 1.4 s for a
  * smooth function, 4-5 s for white noise (many maxima). So the signature
- * path (phks_persistence_run) reports progress inside every phase, every
+ * path (phks__persistence_run) reports progress inside every phase, every
  * so many steps, and stops at the next report when cancelled; the steps
  * and the results are the same with or without a callback.
  */
@@ -144,13 +144,13 @@ typedef struct merger {
 
 static void merger_release(merger *m)
 {
-    phks_free(m->parent);
-    phks_free(m->tri_block);
-    phks_free(m->value);
-    phks_free(m->vertex_rank);
-    phks_free(m->order);
-    phks_free(m->queue);
-    phks_free(m->nodes);
+    phks__free(m->parent);
+    phks__free(m->tri_block);
+    phks__free(m->value);
+    phks__free(m->vertex_rank);
+    phks__free(m->order);
+    phks__free(m->queue);
+    phks__free(m->nodes);
 }
 
 /* ---- progress: each phase has a share of the stage's span (its share
@@ -194,7 +194,7 @@ static phks_status report(const merger *m, size_t i, size_t n)
     if (!m->opt || !m->opt->progress)
         return PHKS_OK;
     double x = m->from + m->width * (n > 0 && i < n ? (double)i / (double)n : 1);
-    return phks_progress(m->opt, PHKS_STAGE_PERSISTENCE, m->done + m->span * x);
+    return phks__progress(m->opt, PHKS_STAGE_PERSISTENCE, m->done + m->span * x);
 }
 
 /* Starts the part [from, to) (fractions of it) of phase p, with a
@@ -257,14 +257,14 @@ static uint64_t double_key(double x)
  * go to m->value in ascending order. */
 static phks_status rank_values(merger *m, const double *f, size_t n)
 {
-    m->vertex_rank = phks_malloc_array(n, sizeof *m->vertex_rank);
-    m->value = phks_malloc_array(n, sizeof *m->value);
-    sort_item *a = phks_malloc_array(n, sizeof *a);
-    sort_item *tmp = phks_malloc_array(n, sizeof *tmp);
+    m->vertex_rank = phks__malloc_array(n, sizeof *m->vertex_rank);
+    m->value = phks__malloc_array(n, sizeof *m->value);
+    sort_item *a = phks__malloc_array(n, sizeof *a);
+    sort_item *tmp = phks__malloc_array(n, sizeof *tmp);
     if (!m->vertex_rank || !m->value || !a || !tmp) {
-        phks_free(a);
-        phks_free(tmp);
-        return phks_fail_oom("persistence ranks");
+        phks__free(a);
+        phks__free(tmp);
+        return phks__fail_oom("persistence ranks");
     }
     for (size_t v = 0; v < n; v++)
         a[v] = (sort_item){double_key(f[v]), (uint32_t)v};
@@ -278,8 +278,8 @@ static phks_status rank_values(merger *m, const double *f, size_t n)
         m->value[r] = x;
         m->vertex_rank[s[i].id] = r;
     }
-    phks_free(a);
-    phks_free(tmp);
+    phks__free(a);
+    phks__free(tmp);
     return st;
 }
 
@@ -503,21 +503,21 @@ static phks_status merger_init(merger *m, const phks_mesh *mesh, const double *f
         return st;
     }
     /* One spare element leaves room to align to 64 bytes. */
-    m->tri_block = phks_malloc_array(n_t + 1, sizeof(tri_state));
-    m->order = phks_malloc_array(n_t, sizeof *m->order);
-    m->parent = phks_malloc_array(n_t, sizeof *m->parent);
-    uint32_t *start = phks_calloc(n_v + 1, sizeof *start);
+    m->tri_block = phks__malloc_array(n_t + 1, sizeof(tri_state));
+    m->order = phks__malloc_array(n_t, sizeof *m->order);
+    m->parent = phks__malloc_array(n_t, sizeof *m->parent);
+    uint32_t *start = phks__calloc(n_v + 1, sizeof *start);
     if (!m->tri_block || !m->order || !m->parent || !start) {
-        phks_free(start);
+        phks__free(start);
         merger_release(m);
-        return phks_fail_oom("persistence work arrays");
+        return phks__fail_oom("persistence work arrays");
     }
     m->tri = (tri_state *)(((uintptr_t)m->tri_block + 63) & ~(uintptr_t)63);
 
     const uint32_t *corner = mesh->triangles;
     for (uint32_t t = 0; t < n_t; t++) {
         if (due(t, HEAVY) && (st = report(m, t, n_t)) != PHKS_OK) {
-            phks_free(start);
+            phks__free(start);
             merger_release(m);
             return st;
         }
@@ -546,7 +546,7 @@ static phks_status merger_init(merger *m, const phks_mesh *mesh, const double *f
         start[r + 1] += start[r];
     for (uint32_t t = 0; t < n_t; t++)
         m->order[start[m->tri[t].rank]++] = t;
-    phks_free(start);
+    phks__free(start);
     return PHKS_OK;
 }
 
@@ -598,9 +598,9 @@ static phks_status rebuild_heaps(merger *m, size_t n_t, size_t kept)
     phks_status st = phase(m, PHASE_HEAPS, 0, 1);
     if (st != PHKS_OK)
         return st;
-    uint32_t *start = phks_calloc(kept + 1, sizeof *start);
+    uint32_t *start = phks__calloc(kept + 1, sizeof *start);
     if (!start)
-        return phks_fail_oom("persistence heaps");
+        return phks__fail_oom("persistence heaps");
     for (uint32_t i = 0; i < kept; i++) {
         m->tri[m->order[i]].slot = i; /* region number, for now */
         m->tri[m->order[i]].heap = NIL;
@@ -623,9 +623,9 @@ static phks_status rebuild_heaps(merger *m, size_t n_t, size_t kept)
     }
     for (size_t i = 0; i < kept; i++)
         start[i + 1] += start[i];
-    m->nodes = phks_malloc_array(start[kept] ? start[kept] : 1, sizeof *m->nodes);
+    m->nodes = phks__malloc_array(start[kept] ? start[kept] : 1, sizeof *m->nodes);
     if (!m->nodes) {
-        st = phks_fail_oom("persistence heaps");
+        st = phks__fail_oom("persistence heaps");
         goto fail;
     }
     for (uint32_t t = 0; t < n_t; t++) {
@@ -644,7 +644,7 @@ static phks_status rebuild_heaps(merger *m, size_t n_t, size_t kept)
     for (uint32_t i = 0; i < kept; i++)
         m->tri[m->order[i]].slot = NIL;
 fail:
-    phks_free(start);
+    phks__free(start);
     return st;
 }
 
@@ -655,9 +655,9 @@ static phks_status queue_build(merger *m, size_t kept)
     phks_status st = phase(m, PHASE_QUEUE, 0, 1);
     if (st != PHKS_OK)
         return st;
-    m->queue = phks_malloc_array(kept ? kept : 1, sizeof *m->queue);
+    m->queue = phks__malloc_array(kept ? kept : 1, sizeof *m->queue);
     if (!m->queue)
-        return phks_fail_oom("persistence queue");
+        return phks__fail_oom("persistence queue");
     for (size_t i = 0; i < kept; i++) {
         uint32_t t = m->order[i];
         m->queue[i] = (region_entry){region_p(m, t), m->tri[t].rank, t};
@@ -720,16 +720,16 @@ static phks_status survivors_persistence(merger *m, size_t n)
     }
     if (b == 0)
         return PHKS_OK;
-    sort_item *a = phks_malloc_array(b, sizeof *a);
-    sort_item *tmp = phks_malloc_array(b, sizeof *tmp);
-    uint32_t *up = phks_malloc_array(n, sizeof *up);
-    uint32_t *top = phks_malloc_array(n, sizeof *top); /* latest central */
+    sort_item *a = phks__malloc_array(b, sizeof *a);
+    sort_item *tmp = phks__malloc_array(b, sizeof *tmp);
+    uint32_t *up = phks__malloc_array(n, sizeof *up);
+    uint32_t *top = phks__malloc_array(n, sizeof *top); /* latest central */
     if (!a || !tmp || !up || !top) {
-        phks_free(a);
-        phks_free(tmp);
-        phks_free(up);
-        phks_free(top);
-        return phks_fail_oom("persistence boundary edges");
+        phks__free(a);
+        phks__free(tmp);
+        phks__free(up);
+        phks__free(top);
+        return phks__fail_oom("persistence boundary edges");
     }
     size_t k = 0;
     st = phase(m, PHASE_SURVIVORS, 0.5, 0.75);
@@ -767,10 +767,10 @@ static phks_status survivors_persistence(merger *m, size_t n)
             up[g] = eldest;
         }
     }
-    phks_free(a);
-    phks_free(tmp);
-    phks_free(up);
-    phks_free(top);
+    phks__free(a);
+    phks__free(tmp);
+    phks__free(up);
+    phks__free(top);
     return st;
 }
 
@@ -801,11 +801,11 @@ phks_status phks_persistent_maxima(const phks_mesh *mesh, const double *f,
                                    phks_maximum *out, size_t *count,
                                    uint32_t *region_of_triangle)
 {
-    return phks_persistence_run(mesh, f, max_count, threshold, out, count,
+    return phks__persistence_run(mesh, f, max_count, threshold, out, count,
                                 region_of_triangle, NULL, 0, 0);
 }
 
-phks_status phks_persistence_run(const phks_mesh *mesh, const double *f,
+phks_status phks__persistence_run(const phks_mesh *mesh, const double *f,
                                  size_t max_count, double threshold,
                                  phks_maximum *out, size_t *count,
                                  uint32_t *region_of_triangle,
@@ -815,19 +815,19 @@ phks_status phks_persistence_run(const phks_mesh *mesh, const double *f,
     if (count)
         *count = 0;
     if (!mesh || !f || !out || !count)
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "phks_persistent_maxima: NULL argument");
     if (max_count == 0)
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "phks_persistent_maxima: max_count is 0");
     if (!(threshold >= 0))
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "phks_persistent_maxima: threshold %g is negative "
                          "or NaN",
                          threshold);
     for (size_t v = 0; v < mesh->vertex_count; v++)
         if (!isfinite(f[v]))
-            return phks_fail(PHKS_ERROR_NON_FINITE,
+            return phks__fail(PHKS_ERROR_NON_FINITE,
                              "phks_persistent_maxima: vertex %zu: value %g "
                              "is not finite",
                              v, f[v]);

@@ -36,9 +36,9 @@ static phks_status check_pair(const phks_signature *a, const phks_signature *b,
                               const char *fn)
 {
     if (!a || !b)
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT, "%s: NULL signature", fn);
-    if (!phks_options_comparable(&a->options, &b->options))
-        return phks_fail(PHKS_ERROR_INCOMPATIBLE,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT, "%s: NULL signature", fn);
+    if (!phks__options_comparable(&a->options, &b->options))
+        return phks__fail(PHKS_ERROR_INCOMPATIBLE,
                          "%s: the signatures were made with different options",
                          fn);
     return PHKS_OK;
@@ -55,7 +55,7 @@ phks_status phks_match(const phks_signature *a, const phks_signature *b,
     if (count)
         *count = needed;
     if (out && capacity < needed)
-        return phks_fail(PHKS_ERROR_BUFFER_TOO_SMALL,
+        return phks__fail(PHKS_ERROR_BUFFER_TOO_SMALL,
                          "phks_match: room for %zu correspondences, %zu needed",
                          capacity, needed);
     double total = 0;
@@ -84,6 +84,6 @@ phks_status phks_score(const phks_signature *a, const phks_signature *b,
                        double *score)
 {
     if (!score)
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT, "phks_score: NULL score");
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT, "phks_score: NULL score");
     return phks_match(a, b, NULL, 0, NULL, score);
 }

@@ -13,34 +13,34 @@ void phks_signature_free(phks_signature *sig)
 {
     if (!sig)
         return;
-    phks_free(sig->vertex);
-    phks_free(sig->position);
-    phks_free(sig->persistence);
-    phks_free(sig->vectors);
-    phks_free(sig);
+    phks__free(sig->vertex);
+    phks__free(sig->position);
+    phks__free(sig->persistence);
+    phks__free(sig->vectors);
+    phks__free(sig);
 }
 
-phks_status phks_signature_alloc(size_t count, size_t length,
+phks_status phks__signature_alloc(size_t count, size_t length,
                                  phks_signature **out)
 {
-    phks_signature *sig = phks_calloc(1, sizeof *sig);
+    phks_signature *sig = phks__calloc(1, sizeof *sig);
     if (!sig)
-        return phks_fail_oom("signature");
+        return phks__fail_oom("signature");
     sig->count = count;
     sig->length = length;
-    sig->vertex = phks_malloc_array(count, sizeof *sig->vertex);
-    sig->position = phks_malloc_array(count, 3 * sizeof *sig->position);
-    sig->persistence = phks_malloc_array(count, sizeof *sig->persistence);
-    sig->vectors = phks_malloc_array(count, length * sizeof *sig->vectors);
+    sig->vertex = phks__malloc_array(count, sizeof *sig->vertex);
+    sig->position = phks__malloc_array(count, 3 * sizeof *sig->position);
+    sig->persistence = phks__malloc_array(count, sizeof *sig->persistence);
+    sig->vectors = phks__malloc_array(count, length * sizeof *sig->vectors);
     if (!sig->vertex || !sig->position || !sig->persistence || !sig->vectors) {
         phks_signature_free(sig);
-        return phks_fail_oom("signature");
+        return phks__fail_oom("signature");
     }
     *out = sig;
     return PHKS_OK;
 }
 
-bool phks_options_comparable(const phks_options *a, const phks_options *b)
+bool phks__options_comparable(const phks_options *a, const phks_options *b)
 {
     if (a->tau != b->tau || a->cutoff != b->cutoff ||
         a->eigen_count != b->eigen_count || a->feature_count != b->feature_count ||
@@ -62,7 +62,7 @@ static phks_status check_spectrum(const phks_mesh *mesh,
                                   const phks_options *opt)
 {
     if (spec->n != mesh->vertex_count)
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "phks_signature_from_spectrum: the spectrum has %zu "
                          "vertices, the mesh %zu",
                          spec->n, mesh->vertex_count);
@@ -70,7 +70,7 @@ static phks_status check_spectrum(const phks_mesh *mesh,
     if (s->tau != opt->tau || s->cutoff != opt->cutoff ||
         s->eigen_count != opt->eigen_count ||
         s->operator_kind != opt->operator_kind || s->box != opt->box)
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "phks_signature_from_spectrum: the options differ "
                          "from those the spectrum was computed with");
     return PHKS_OK;
@@ -92,7 +92,7 @@ static double hks_factor(const phks_spectrum *spec, const phks_options *opt,
     return mass / trace;
 }
 
-/* The local areas of features [begin, end), for phks_run_batched. */
+/* The local areas of features [begin, end), for phks__run_batched. */
 typedef struct {
     const phks_mesh *mesh;
     const phks_signature *sig;
@@ -105,7 +105,7 @@ static void areas_range(void *ctx, size_t begin, size_t end)
 {
     const areas_ctx *c = ctx;
     for (size_t i = begin; i < end; i++)
-        phks_local_areas(c->mesh, c->scale, c->vertex_area, c->sig->vertex[i],
+        phks__local_areas(c->mesh, c->scale, c->vertex_area, c->sig->vertex[i],
                          c->radius2, c->sig->length, c->area + i * c->sig->length);
 }
 
@@ -118,16 +118,16 @@ static phks_status local_areas(const phks_mesh *mesh, const phks_options *opt,
                                double scale, const phks_signature *sig,
                                const double *radius2, double *area)
 {
-    double *vertex_area = phks_malloc_array(mesh->vertex_count, sizeof *vertex_area);
+    double *vertex_area = phks__malloc_array(mesh->vertex_count, sizeof *vertex_area);
     if (!vertex_area)
-        return phks_fail_oom("feature vectors");
-    phks_vertex_areas(mesh, scale, vertex_area);
+        return phks__fail_oom("feature vectors");
+    phks__vertex_areas(mesh, scale, vertex_area);
     areas_ctx c = {mesh, sig, vertex_area, radius2, scale, area};
-    unsigned threads = phks_thread_count(opt);
-    phks_status st = phks_run_batched(sig->count, threads, areas_range, &c, opt,
+    unsigned threads = phks__thread_count(opt);
+    phks_status st = phks__run_batched(sig->count, threads, areas_range, &c, opt,
                                       PHKS_STAGE_PERSISTENCE, 0.95, 0.05,
                                       (sig->count + threads - 1) / threads);
-    phks_free(vertex_area);
+    phks__free(vertex_area);
     return st;
 }
 
@@ -152,12 +152,12 @@ static phks_status feature_vectors(const phks_mesh *mesh,
     bool local = opt->hks_scaling == PHKS_HKS_SCALING_LOCAL_AREA;
     double *area = NULL;
     if (local && sig->count) {
-        area = phks_malloc_array(sig->count, S * sizeof *area);
+        area = phks__malloc_array(sig->count, S * sizeof *area);
         if (!area)
-            return phks_fail_oom("feature vectors");
+            return phks__fail_oom("feature vectors");
         phks_status st = local_areas(mesh, opt, scale, sig, radius2, area);
         if (st != PHKS_OK) {
-            phks_free(area);
+            phks__free(area);
             return st;
         }
     }
@@ -165,15 +165,15 @@ static phks_status feature_vectors(const phks_mesh *mesh,
         uint32_t v = sig->vertex[i];
         double *out = sig->vectors + i * S;
         for (size_t s = 0; s < S; s++) {
-            double h = phks_hks_at(spec, opt->scales[s] * opt->tau, v) * factors[s];
+            double h = phks__hks_at(spec, opt->scales[s] * opt->tau, v) * factors[s];
             /* HKS is positive and the point's own area is in A_t; the
              * floor only keeps a rounding-level zero finite. */
-            out[s] = local ? log(fmax(h * area[i * S + s] / (PHKS_PI * radius2[s]),
+            out[s] = local ? log(fmax(h * area[i * S + s] / (PHKS__PI * radius2[s]),
                                       DBL_MIN))
                            : h;
         }
     }
-    phks_free(area);
+    phks__free(area);
     return PHKS_OK;
 }
 
@@ -202,16 +202,16 @@ static phks_status taper_at_boundary(const phks_mesh *mesh,
     if (!tapers(mesh, opt))
         return PHKS_OK;
     double m = opt->boundary_margin * sqrt(4 * opt->feature_scale * opt->tau);
-    double *d = phks_malloc_array(mesh->vertex_count, sizeof *d);
+    double *d = phks__malloc_array(mesh->vertex_count, sizeof *d);
     if (!d)
-        return phks_fail_oom("boundary taper");
+        return phks__fail_oom("boundary taper");
     /* Beyond 6 m the taper differs from 1 by less than e^-36. */
-    phks_status st = phks_boundary_distance(mesh, scale, 6 * m, opt,
+    phks_status st = phks__boundary_distance(mesh, scale, 6 * m, opt,
                                             PHKS_STAGE_PERSISTENCE, SCALE_SPAN,
                                             TAPER_SPAN - SCALE_SPAN, d);
     for (size_t v = 0; st == PHKS_OK && v < mesh->vertex_count; v++)
         h[v] *= -expm1(-(d[v] / m) * (d[v] / m));
-    phks_free(d);
+    phks__free(d);
     return st;
 }
 
@@ -223,54 +223,54 @@ phks_status phks_signature_from_spectrum(const phks_mesh *mesh,
     if (out)
         *out = NULL;
     if (!mesh || !spec || !out)
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "phks_signature_from_spectrum: NULL argument");
     phks_options opt;
-    phks_status st = phks_options_resolve(options, &opt);
+    phks_status st = phks__options_resolve(options, &opt);
     if (st == PHKS_OK)
         st = check_spectrum(mesh, spec, &opt);
     if (st == PHKS_OK)
-        st = phks_progress(&opt, PHKS_STAGE_HKS, 0);
+        st = phks__progress(&opt, PHKS_STAGE_HKS, 0);
     if (st != PHKS_OK)
         return st;
 
     size_t n = mesh->vertex_count, wanted = opt.feature_count;
     if (wanted > mesh->triangle_count)
         wanted = mesh->triangle_count;
-    double *h = phks_malloc_array(n, sizeof *h);
+    double *h = phks__malloc_array(n, sizeof *h);
     phks_maximum *maxima = NULL;
     phks_signature *sig = NULL;
     size_t found = 0;
     if (!h) {
-        st = phks_fail_oom("signature");
+        st = phks__fail_oom("signature");
         goto done;
     }
     double t_feature = opt.feature_scale * opt.tau;
-    st = phks_hks_all(spec, t_feature, &opt, h);
+    st = phks__hks_all(spec, t_feature, &opt, h);
     double factor = hks_factor(spec, &opt, t_feature);
     for (size_t v = 0; v < n; v++)
         h[v] *= factor;
     if (st == PHKS_OK)
-        st = phks_progress(&opt, PHKS_STAGE_PERSISTENCE, 0);
+        st = phks__progress(&opt, PHKS_STAGE_PERSISTENCE, 0);
     bool scaled = tapers(mesh, &opt) ||
                   opt.hks_scaling == PHKS_HKS_SCALING_LOCAL_AREA;
     double scale = 1;
     if (st == PHKS_OK && scaled)
-        st = phks_unit_box_scale_progress(mesh, (phks_box)opt.box, &opt,
+        st = phks__unit_box_scale_progress(mesh, (phks_box)opt.box, &opt,
                                           PHKS_STAGE_PERSISTENCE, 0,
                                           SCALE_SPAN, &scale);
     if (st == PHKS_OK)
         st = taper_at_boundary(mesh, &opt, scale, h);
-    maxima = st == PHKS_OK ? phks_malloc_array(wanted, sizeof *maxima) : NULL;
+    maxima = st == PHKS_OK ? phks__malloc_array(wanted, sizeof *maxima) : NULL;
     if (st == PHKS_OK && !maxima)
-        st = phks_fail_oom("feature points");
+        st = phks__fail_oom("feature points");
     /* The persistence up to 0.95, the feature vectors after. */
     double from = tapers(mesh, &opt) ? TAPER_SPAN : scaled ? SCALE_SPAN : 0;
     if (st == PHKS_OK)
-        st = phks_persistence_run(mesh, h, wanted, 0, maxima, &found, NULL,
+        st = phks__persistence_run(mesh, h, wanted, 0, maxima, &found, NULL,
                                   &opt, from, 0.95 - from);
     if (st == PHKS_OK)
-        st = phks_signature_alloc(found, opt.scale_count, &sig);
+        st = phks__signature_alloc(found, opt.scale_count, &sig);
     if (st != PHKS_OK)
         goto done;
     sig->options = opt;
@@ -284,10 +284,10 @@ phks_status phks_signature_from_spectrum(const phks_mesh *mesh,
     }
     st = feature_vectors(mesh, spec, &opt, scale, sig);
     if (st == PHKS_OK)
-        st = phks_progress(&opt, PHKS_STAGE_PERSISTENCE, 1);
+        st = phks__progress(&opt, PHKS_STAGE_PERSISTENCE, 1);
 done:
-    phks_free(h);
-    phks_free(maxima);
+    phks__free(h);
+    phks__free(maxima);
     if (st != PHKS_OK) {
         phks_signature_free(sig);
         return st;
@@ -303,7 +303,7 @@ phks_status phks_signature_compute(const phks_mesh *mesh,
     if (out)
         *out = NULL;
     if (!mesh || !out)
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "phks_signature_compute: NULL argument");
     phks_spectrum *spec = NULL;
     phks_status st = phks_spectrum_compute(mesh, options, &spec);
@@ -325,7 +325,7 @@ phks_status phks_signature_feature_position(const phks_signature *s, size_t i,
                                             double xyz[3])
 {
     if (!s || !xyz || i >= s->count)
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "phks_signature_feature_position: no feature %zu", i);
     memcpy(xyz, s->position + 3 * i, 3 * sizeof(double));
     return PHKS_OK;
@@ -344,7 +344,7 @@ const double *phks_signature_feature_vector(const phks_signature *s, size_t i)
 phks_status phks_signature_options(const phks_signature *s, phks_options *options)
 {
     if (!s || !options)
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "phks_signature_options: NULL argument");
     *options = s->options;
     return PHKS_OK;

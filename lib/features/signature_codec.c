@@ -96,12 +96,12 @@ phks_status phks_signature_encode(const phks_signature *sig, void *buffer,
                                   size_t capacity, size_t *size)
 {
     if (!sig || !size || (!buffer && capacity))
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "phks_signature_encode: NULL argument");
     size_t need = blob_size(FORMAT, sig->length, sig->count);
     *size = need;
     if (capacity < need)
-        return phks_fail(PHKS_ERROR_BUFFER_TOO_SMALL,
+        return phks__fail(PHKS_ERROR_BUFFER_TOO_SMALL,
                          "phks_signature_encode: %zu bytes needed, room for %zu",
                          need, capacity);
     const phks_options *o = &sig->options;
@@ -130,7 +130,7 @@ phks_status phks_signature_encode(const phks_signature *sig, void *buffer,
         for (size_t s = 0; s < sig->length; s++)
             p = put_f64(p, sig->vectors[i * sig->length + s]);
     }
-    put_u32(p, phks_crc32(start, (size_t)(p - start)));
+    put_u32(p, phks__crc32(start, (size_t)(p - start)));
     return PHKS_OK;
 }
 
@@ -139,11 +139,11 @@ phks_status phks_signature_encode(const phks_signature *sig, void *buffer,
 static phks_status check_numbers(const phks_signature *sig)
 {
     phks_options check;
-    if (phks_options_resolve(&sig->options, &check) != PHKS_OK) {
+    if (phks__options_resolve(&sig->options, &check) != PHKS_OK) {
         /* A copy: the message buffer cannot be printed into itself. */
         char why[256];
         snprintf(why, sizeof why, "%s", phks_last_error_message());
-        return phks_fail(PHKS_ERROR_CORRUPT, "signature blob: bad options (%s)",
+        return phks__fail(PHKS_ERROR_CORRUPT, "signature blob: bad options (%s)",
                          why);
     }
     for (size_t i = 0; i < sig->count; i++) {
@@ -153,7 +153,7 @@ static phks_status check_numbers(const phks_signature *sig)
         for (size_t s = 0; s < sig->length; s++)
             ok = ok && isfinite(sig->vectors[i * sig->length + s]);
         if (!ok)
-            return phks_fail(PHKS_ERROR_CORRUPT,
+            return phks__fail(PHKS_ERROR_CORRUPT,
                              "signature blob: feature %zu holds an impossible "
                              "number", i);
     }
@@ -166,26 +166,26 @@ phks_status phks_signature_decode(const void *buffer, size_t size,
     if (out)
         *out = NULL;
     if (!buffer || !out)
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "phks_signature_decode: NULL argument");
     const unsigned char *start = buffer, *p = start;
     if (size < 8)
-        return phks_fail(PHKS_ERROR_TRUNCATED,
+        return phks__fail(PHKS_ERROR_TRUNCATED,
                          "signature blob: %zu bytes, shorter than a header", size);
     if (memcmp(p, "PHKS", 4) != 0)
-        return phks_fail(PHKS_ERROR_CORRUPT, "signature blob: bad magic bytes");
+        return phks__fail(PHKS_ERROR_CORRUPT, "signature blob: bad magic bytes");
     p += 4;
     uint16_t format = get_u16(&p), flags = get_u16(&p);
     if (format > FORMAT)
-        return phks_fail(PHKS_ERROR_UNSUPPORTED_VERSION,
+        return phks__fail(PHKS_ERROR_UNSUPPORTED_VERSION,
                          "signature blob: format %u is newer than this "
                          "library's %d",
                          format, FORMAT);
     if (format == 0 || flags != 0)
-        return phks_fail(PHKS_ERROR_CORRUPT,
+        return phks__fail(PHKS_ERROR_CORRUPT,
                          "signature blob: format %u flags %u", format, flags);
     if (size < header_size(format) + 4)
-        return phks_fail(PHKS_ERROR_TRUNCATED, "signature blob: %zu bytes", size);
+        return phks__fail(PHKS_ERROR_TRUNCATED, "signature blob: %zu bytes", size);
 
     phks_options o;
     phks_options_init(&o);
@@ -204,31 +204,31 @@ phks_status phks_signature_decode(const void *buffer, size_t size,
         o.hks_scaling = (int32_t)get_u32(&p);
     }
     if (o.scale_count < 1 || o.scale_count > PHKS_MAX_SCALES)
-        return phks_fail(PHKS_ERROR_CORRUPT, "signature blob: %u scales",
+        return phks__fail(PHKS_ERROR_CORRUPT, "signature blob: %u scales",
                          o.scale_count);
     if (size < header_size(format) + 8 * (size_t)o.scale_count + 8)
-        return phks_fail(PHKS_ERROR_TRUNCATED, "signature blob: %zu bytes", size);
+        return phks__fail(PHKS_ERROR_TRUNCATED, "signature blob: %zu bytes", size);
     for (uint32_t s = 0; s < o.scale_count; s++)
         o.scales[s] = get_f64(&p);
     uint32_t count = get_u32(&p);
     size_t need = blob_size(format, o.scale_count, count);
     if (size < need)
-        return phks_fail(PHKS_ERROR_TRUNCATED,
+        return phks__fail(PHKS_ERROR_TRUNCATED,
                          "signature blob: %zu bytes, %u features need %zu",
                          size, count, need);
     if (size > need)
-        return phks_fail(PHKS_ERROR_CORRUPT,
+        return phks__fail(PHKS_ERROR_CORRUPT,
                          "signature blob: %zu bytes, %u features need %zu",
                          size, count, need);
     const unsigned char *crc_at = start + need - 4;
     uint32_t stored = get_u32(&crc_at);
-    if (stored != phks_crc32(start, need - 4))
-        return phks_fail(PHKS_ERROR_CORRUPT, "signature blob: checksum mismatch");
+    if (stored != phks__crc32(start, need - 4))
+        return phks__fail(PHKS_ERROR_CORRUPT, "signature blob: checksum mismatch");
     if (count == 0)
-        return phks_fail(PHKS_ERROR_CORRUPT, "signature blob: no features");
+        return phks__fail(PHKS_ERROR_CORRUPT, "signature blob: no features");
 
     phks_signature *sig;
-    phks_status st = phks_signature_alloc(count, o.scale_count, &sig);
+    phks_status st = phks__signature_alloc(count, o.scale_count, &sig);
     if (st != PHKS_OK)
         return st;
     sig->options = o;

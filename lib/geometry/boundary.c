@@ -14,12 +14,12 @@ static phks_status boundary_points(const phks_mesh *mesh, double scale,
                                    double **points, size_t *count)
 {
     size_t n = mesh->vertex_count, found = 0;
-    bool *on = phks_calloc(n, sizeof *on);
-    double *p = phks_malloc_array(2 * mesh->boundary_edge_count, 3 * sizeof *p);
+    bool *on = phks__calloc(n, sizeof *on);
+    double *p = phks__malloc_array(2 * mesh->boundary_edge_count, 3 * sizeof *p);
     if (!on || !p) {
-        phks_free(on);
-        phks_free(p);
-        return phks_fail_oom("boundary distances");
+        phks__free(on);
+        phks__free(p);
+        return phks__fail_oom("boundary distances");
     }
     for (size_t e = 0; e < 2 * mesh->boundary_edge_count; e++) {
         uint32_t v = mesh->boundary_edges[e];
@@ -30,7 +30,7 @@ static phks_status boundary_points(const phks_mesh *mesh, double scale,
             p[3 * found + d] = mesh->xyz[3 * (size_t)v + d] * scale;
         found++;
     }
-    phks_free(on);
+    phks__free(on);
     *points = p;
     *count = found;
     return PHKS_OK;
@@ -38,7 +38,7 @@ static phks_status boundary_points(const phks_mesh *mesh, double scale,
 
 /* Squared distance from q to the nearest point in the cell (x, y, z),
  * folded into best; cells outside the grid hold nothing. */
-static double nearest_in_cell(const phks_grid *g, const double *points,
+static double nearest_in_cell(const phks__grid *g, const double *points,
                               const double *q, long x, long y, long z,
                               double best)
 {
@@ -59,7 +59,7 @@ static double nearest_in_cell(const phks_grid *g, const double *points,
  * best distance found is below r cells (nothing farther out can beat it)
  * or the shell lies beyond cap, so the cost follows the distance found,
  * not cap. */
-static double nearest_within(const phks_grid *g, const double *points,
+static double nearest_within(const phks__grid *g, const double *points,
                              const double *q, double cap)
 {
     long c[3];
@@ -84,7 +84,7 @@ static double nearest_within(const phks_grid *g, const double *points,
 
 typedef struct {
     const phks_mesh *mesh;
-    const phks_grid *grid;
+    const phks__grid *grid;
     const double *points;
     double scale, cap;
     double *distance;
@@ -105,7 +105,7 @@ static void distance_rows(void *ctx, size_t begin, size_t end)
  * when the boundary is near, more where its reach is wide. */
 #define BATCH 16384
 
-phks_status phks_boundary_distance(const phks_mesh *mesh, double scale,
+phks_status phks__boundary_distance(const phks_mesh *mesh, double scale,
                                    double cap, const phks_options *opt,
                                    phks_stage stage, double done, double span,
                                    double *distance)
@@ -122,16 +122,16 @@ phks_status phks_boundary_distance(const phks_mesh *mesh, double scale,
         return st;
     /* Cells a sixteenth of cap keep the shells near a vertex small; the
      * grid coarsens them where the boundary is sparse. */
-    phks_grid grid = {0};
-    st = phks_grid_build(points, found, 1, cap / 16, &grid);
+    phks__grid grid = {0};
+    st = phks__grid_build(points, found, 1, cap / 16, &grid);
     if (st == PHKS_OK) {
         distance_ctx c = {mesh, &grid, points, scale, cap, distance};
         /* Each vertex's distance is its own: any split gives the same. */
-        st = phks_run_batched(n, opt ? phks_thread_count(opt) : 1,
+        st = phks__run_batched(n, opt ? phks__thread_count(opt) : 1,
                               distance_rows, &c, opt, stage, done, span,
                               (n + BATCH - 1) / BATCH);
     }
-    phks_grid_release(&grid);
-    phks_free(points);
+    phks__grid_release(&grid);
+    phks__free(points);
     return st;
 }

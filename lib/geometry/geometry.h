@@ -33,26 +33,26 @@ struct phks_mesh {
 };
 
 /* Area of the triangle with corners a, b, c (3 doubles each). */
-double phks_triangle_area(const double *a, const double *b, const double *c);
+double phks__triangle_area(const double *a, const double *b, const double *c);
 
 /* Builds a mesh from arrays the caller keeps ownership of. vertex_origin
  * may be NULL (identity). Cleans as phks_mesh_create documents. */
-phks_status phks_mesh_build(const double *xyz, size_t vertex_count,
+phks_status phks__mesh_build(const double *xyz, size_t vertex_count,
                             const uint32_t *triangles, size_t triangle_count,
                             const uint32_t *vertex_origin, phks_mesh **out);
 
 /* ---- normalisation (normalize.c) */
 /* Scale factor s such that s * positions fit the unit box of `box`. */
-phks_status phks_unit_box_scale(const phks_mesh *mesh, phks_box box,
+phks_status phks__unit_box_scale(const phks_mesh *mesh, phks_box box,
                                 double *scale);
 /* Per-vertex area: a third of the area of the incident triangles, for
  * positions scaled by `scale`. mass has vertex_count entries. */
-void phks_vertex_areas(const phks_mesh *mesh, double scale, double *mass);
+void phks__vertex_areas(const phks_mesh *mesh, double scale, double *mass);
 /* area[s] = the area (vertex_area summed) of the vertices within
  * straight-line distance sqrt(radius2[s]) of `vertex`, positions scaled by
  * `scale`: what PHKS_HKS_SCALING_LOCAL_AREA multiplies HKS by
  * (local_area.c). The radii in any order. */
-void phks_local_areas(const phks_mesh *mesh, double scale,
+void phks__local_areas(const phks_mesh *mesh, double scale,
                       const double *vertex_area, uint32_t vertex,
                       const double *radius2, size_t count, double *area);
 /* Eigen-decomposition of the symmetric 3 x 3 matrix (row-major; its upper
@@ -62,52 +62,52 @@ void phks_local_areas(const phks_mesh *mesh, double scale,
  * magnitude (the first of equals) is positive. A diagonal matrix gives
  * the unit vectors, in the order of its sorted diagonal. The same bits on
  * every run, whatever the BLAS threads; finite input assumed. */
-void phks_sym3_eigen(const double matrix[9], double values[3],
+void phks__sym3_eigen(const double matrix[9], double values[3],
                      double vectors[9]);
 /* The same with progress in `stage` from done to done + span through opt
  * (NULL: none), every 2^18 triangles or vertices (a tenth of a second for
  * a million vertices takes a few reports); they return
  * PHKS_ERROR_CANCELLED when the callback asks. The numbers are the
  * same. */
-phks_status phks_unit_box_scale_progress(const phks_mesh *mesh, phks_box box,
+phks_status phks__unit_box_scale_progress(const phks_mesh *mesh, phks_box box,
                                          const phks_options *opt,
                                          phks_stage stage, double done,
                                          double span, double *scale);
-phks_status phks_vertex_areas_progress(const phks_mesh *mesh, double scale,
+phks_status phks__vertex_areas_progress(const phks_mesh *mesh, double scale,
                                        const phks_options *opt,
                                        phks_stage stage, double done,
                                        double span, double *mass);
 
 /* ---- spatial grid (grid.c) */
-typedef struct phks_grid {
+typedef struct phks__grid {
     double origin[3];
     double cell;           /* cell edge length */
     size_t dims[3];
     size_t *cell_start;    /* dims product + 1 offsets into points    */
     uint32_t *points;      /* point indices sorted by cell           */
-} phks_grid;
+} phks__grid;
 
 /* Buckets n points (xyz, scaled by `scale`) into cells of size `cell`. */
-phks_status phks_grid_build(const double *xyz, size_t n, double scale,
-                            double cell, phks_grid *grid);
-void phks_grid_release(phks_grid *grid);
+phks_status phks__grid_build(const double *xyz, size_t n, double scale,
+                            double cell, phks__grid *grid);
+void phks__grid_release(phks__grid *grid);
 /* The cell of the (scaled) point p, clamped to the grid. */
-void phks_grid_cell(const phks_grid *grid, const double p[3], size_t c[3]);
+void phks__grid_cell(const phks__grid *grid, const double p[3], size_t c[3]);
 /* The points of cell c and the 26 around it as ranges [first, last) of
  * grid->points, in a fixed order (z, then y; x ascending within each):
  * returns how many ranges (at most 9, fewer at the grid's faces). */
-size_t phks_grid_neighbourhood(const phks_grid *grid, const size_t c[3],
+size_t phks__grid_neighbourhood(const phks__grid *grid, const size_t c[3],
                                size_t range[9][2]);
 
 /* ---- boundary proximity (boundary.c) */
 /* distance[v] = straight-line distance from vertex v to the nearest vertex
  * on a boundary edge, positions scaled by scale, capped at cap (cap > 0;
- * all cap on a closed mesh). Runs on phks_thread_count(opt) threads (the
+ * all cap on a closed mesh). Runs on phks__thread_count(opt) threads (the
  * distances do not depend on it) and reports progress in `stage` from
  * done to done + span through opt (NULL: one thread, no reports) between
  * batches of vertices; returns PHKS_ERROR_CANCELLED when the callback
  * asks. */
-phks_status phks_boundary_distance(const phks_mesh *mesh, double scale,
+phks_status phks__boundary_distance(const phks_mesh *mesh, double scale,
                                    double cap, const phks_options *opt,
                                    phks_stage stage, double done, double span,
                                    double *distance);

@@ -12,15 +12,15 @@
  * the cell count is at most a small multiple of the point count. */
 #define MAX_CELLS_PER_POINT 8
 
-void phks_grid_release(phks_grid *g)
+void phks__grid_release(phks__grid *g)
 {
-    phks_free(g->cell_start);
-    phks_free(g->points);
+    phks__free(g->cell_start);
+    phks__free(g->points);
     g->cell_start = NULL;
     g->points = NULL;
 }
 
-void phks_grid_cell(const phks_grid *g, const double p[3], size_t c[3])
+void phks__grid_cell(const phks__grid *g, const double p[3], size_t c[3])
 {
     for (int d = 0; d < 3; d++) {
         double x = floor((p[d] - g->origin[d]) / g->cell);
@@ -28,7 +28,7 @@ void phks_grid_cell(const phks_grid *g, const double p[3], size_t c[3])
     }
 }
 
-size_t phks_grid_neighbourhood(const phks_grid *g, const size_t c[3],
+size_t phks__grid_neighbourhood(const phks__grid *g, const size_t c[3],
                                size_t range[9][2])
 {
     size_t count = 0;
@@ -43,16 +43,16 @@ size_t phks_grid_neighbourhood(const phks_grid *g, const size_t c[3],
     return count;
 }
 
-static size_t cell_of(const phks_grid *g, const double *xyz, double scale)
+static size_t cell_of(const phks__grid *g, const double *xyz, double scale)
 {
     double p[3] = {xyz[0] * scale, xyz[1] * scale, xyz[2] * scale};
     size_t c[3];
-    phks_grid_cell(g, p, c);
+    phks__grid_cell(g, p, c);
     return (c[2] * g->dims[1] + c[1]) * g->dims[0] + c[0];
 }
 
-phks_status phks_grid_build(const double *xyz, size_t n, double scale,
-                            double cell, phks_grid *g)
+phks_status phks__grid_build(const double *xyz, size_t n, double scale,
+                            double cell, phks__grid *g)
 {
     double lo[3] = {INFINITY, INFINITY, INFINITY};
     double hi[3] = {-INFINITY, -INFINITY, -INFINITY};
@@ -76,11 +76,11 @@ phks_status phks_grid_build(const double *xyz, size_t n, double scale,
         g->dims[d] = (size_t)floor((hi[d] - lo[d]) / cell) + 1;
         total *= g->dims[d];
     }
-    g->cell_start = phks_calloc(total + 1, sizeof *g->cell_start);
-    g->points = phks_malloc_array(n, sizeof *g->points);
+    g->cell_start = phks__calloc(total + 1, sizeof *g->cell_start);
+    g->points = phks__malloc_array(n, sizeof *g->points);
     if (!g->cell_start || !g->points) {
-        phks_grid_release(g);
-        return phks_fail_oom("spatial grid");
+        phks__grid_release(g);
+        return phks__fail_oom("spatial grid");
     }
     for (size_t i = 0; i < n; i++)
         g->cell_start[cell_of(g, xyz + 3 * i, scale) + 1]++;

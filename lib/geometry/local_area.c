@@ -16,7 +16,7 @@
  */
 #include "geometry/geometry.h"
 
-void phks_local_areas(const phks_mesh *mesh, double scale,
+void phks__local_areas(const phks_mesh *mesh, double scale,
                       const double *vertex_area, uint32_t vertex,
                       const double *radius2, size_t count, double *area)
 {

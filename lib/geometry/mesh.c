@@ -24,7 +24,7 @@
  * underflow the fourth powers below (an area of infinity at coordinates
  * of 1e100, of 0 at 1e-100): they are scaled by a power of two first,
  * which is exact. In between, the arithmetic is the plain formula's. */
-double phks_triangle_area(const double *a, const double *b, const double *c)
+double phks__triangle_area(const double *a, const double *b, const double *c)
 {
     double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
     double v[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
@@ -51,37 +51,37 @@ void phks_mesh_free(phks_mesh *mesh)
 {
     if (!mesh)
         return;
-    phks_free(mesh->xyz);
-    phks_free(mesh->triangles);
-    phks_free(mesh->vertex_origin);
-    phks_free(mesh->edge_vertices);
-    phks_free(mesh->edge_tri_offset);
-    phks_free(mesh->edge_tris);
-    phks_free(mesh->triangle_edges);
-    phks_free(mesh->boundary_edges);
-    phks_free(mesh->vertex_component);
-    phks_free(mesh);
+    phks__free(mesh->xyz);
+    phks__free(mesh->triangles);
+    phks__free(mesh->vertex_origin);
+    phks__free(mesh->edge_vertices);
+    phks__free(mesh->edge_tri_offset);
+    phks__free(mesh->edge_tris);
+    phks__free(mesh->triangle_edges);
+    phks__free(mesh->boundary_edges);
+    phks__free(mesh->vertex_component);
+    phks__free(mesh);
 }
 
 static phks_status check_input(const double *xyz, size_t vertex_count,
                                const uint32_t *triangles, size_t triangle_count)
 {
     if (triangle_count == 0)
-        return phks_fail(PHKS_ERROR_NO_TRIANGLES, "the mesh has no triangles");
+        return phks__fail(PHKS_ERROR_NO_TRIANGLES, "the mesh has no triangles");
     if (vertex_count > MAX_VERTICES)
-        return phks_fail(PHKS_ERROR_TOO_LARGE, "%zu vertices, more than %zu",
+        return phks__fail(PHKS_ERROR_TOO_LARGE, "%zu vertices, more than %zu",
                          vertex_count, MAX_VERTICES);
     if (triangle_count > MAX_TRIANGLES)
-        return phks_fail(PHKS_ERROR_TOO_LARGE, "%zu triangles, more than %zu",
+        return phks__fail(PHKS_ERROR_TOO_LARGE, "%zu triangles, more than %zu",
                          triangle_count, MAX_TRIANGLES);
     for (size_t i = 0; i < 3 * vertex_count; i++)
         if (!isfinite(xyz[i]))
-            return phks_fail(PHKS_ERROR_NON_FINITE,
+            return phks__fail(PHKS_ERROR_NON_FINITE,
                              "vertex %zu: coordinate %c is not finite", i / 3,
                              "xyz"[i % 3]);
     for (size_t i = 0; i < 3 * triangle_count; i++)
         if (triangles[i] >= vertex_count)
-            return phks_fail(PHKS_ERROR_INDEX_OUT_OF_RANGE,
+            return phks__fail(PHKS_ERROR_INDEX_OUT_OF_RANGE,
                              "triangle %zu: vertex index %u, but there are "
                              "%zu vertices",
                              i / 3, triangles[i], vertex_count);
@@ -124,16 +124,16 @@ static phks_status compact(phks_mesh *m, const double *xyz, size_t vertex_count,
     double diag, diag2;
     bbox_diagonal(xyz, vertex_count, &diag, &diag2);
     if (!isfinite(diag))
-        return phks_fail(PHKS_ERROR_TOO_LARGE,
+        return phks__fail(PHKS_ERROR_TOO_LARGE,
                          "the coordinates span more than a double can hold");
     /* Where diag2 overflows or underflows, the same test on a / diag. */
     bool scaled = !(isfinite(diag2) && diag2 >= DBL_MIN) && diag > 0;
     double min_area = DEGENERATE_AREA * diag2;
-    uint32_t *new_index = phks_malloc_array(vertex_count, sizeof *new_index);
-    m->triangles = phks_malloc_array(triangle_count, 3 * sizeof(uint32_t));
+    uint32_t *new_index = phks__malloc_array(vertex_count, sizeof *new_index);
+    m->triangles = phks__malloc_array(triangle_count, 3 * sizeof(uint32_t));
     if (!new_index || !m->triangles) {
-        phks_free(new_index);
-        return phks_fail_oom("mesh triangles");
+        phks__free(new_index);
+        return phks__fail_oom("mesh triangles");
     }
     for (size_t v = 0; v < vertex_count; v++)
         new_index[v] = UINT32_MAX;
@@ -144,7 +144,7 @@ static phks_status compact(phks_mesh *m, const double *xyz, size_t vertex_count,
         const uint32_t *c = triangles + 3 * t;
         if (c[0] == c[1] || c[1] == c[2] || c[0] == c[2])
             continue;
-        double a = phks_triangle_area(xyz + 3 * c[0], xyz + 3 * c[1], xyz + 3 * c[2]);
+        double a = phks__triangle_area(xyz + 3 * c[0], xyz + 3 * c[1], xyz + 3 * c[2]);
         if (scaled ? !(a / diag > DEGENERATE_AREA * diag) : !(a > min_area))
             continue;
         area += a;
@@ -154,15 +154,15 @@ static phks_status compact(phks_mesh *m, const double *xyz, size_t vertex_count,
         kept++;
     }
     if (kept == 0) {
-        phks_free(new_index);
-        return phks_fail(PHKS_ERROR_ZERO_AREA,
+        phks__free(new_index);
+        return phks__fail(PHKS_ERROR_ZERO_AREA,
                          "all %zu triangles are degenerate (zero area or a "
                          "repeated vertex)",
                          triangle_count);
     }
     if (!isfinite(area)) {
-        phks_free(new_index);
-        return phks_fail(PHKS_ERROR_TOO_LARGE,
+        phks__free(new_index);
+        return phks__fail(PHKS_ERROR_TOO_LARGE,
                          "the total area is beyond the range of a double: "
                          "the coordinates are too large");
     }
@@ -171,11 +171,11 @@ static phks_status compact(phks_mesh *m, const double *xyz, size_t vertex_count,
     for (size_t v = 0; v < vertex_count; v++)
         if (new_index[v] == 0)
             new_index[v] = (uint32_t)n++;
-    m->xyz = phks_malloc_array(n, 3 * sizeof(double));
-    m->vertex_origin = phks_malloc_array(n, sizeof(uint32_t));
+    m->xyz = phks__malloc_array(n, 3 * sizeof(double));
+    m->vertex_origin = phks__malloc_array(n, sizeof(uint32_t));
     if (!m->xyz || !m->vertex_origin) {
-        phks_free(new_index);
-        return phks_fail_oom("mesh vertices");
+        phks__free(new_index);
+        return phks__fail_oom("mesh vertices");
     }
     for (size_t v = 0; v < vertex_count; v++) {
         uint32_t w = new_index[v];
@@ -186,9 +186,9 @@ static phks_status compact(phks_mesh *m, const double *xyz, size_t vertex_count,
     }
     for (size_t i = 0; i < 3 * kept; i++)
         m->triangles[i] = new_index[m->triangles[i]];
-    phks_free(new_index);
+    phks__free(new_index);
 
-    uint32_t *shrunk = phks_realloc_array(m->triangles, kept, 3 * sizeof(uint32_t));
+    uint32_t *shrunk = phks__realloc_array(m->triangles, kept, 3 * sizeof(uint32_t));
     if (shrunk)
         m->triangles = shrunk;
     m->vertex_count = n;
@@ -235,16 +235,16 @@ static void sort_bucket(half_edge *h, size_t n)
 static phks_status build_edges(phks_mesh *m)
 {
     size_t n = m->vertex_count, t_count = m->triangle_count, h_count = 3 * t_count;
-    size_t *bucket = phks_calloc(n + 1, sizeof *bucket);
-    half_edge *h = phks_malloc_array(h_count, sizeof *h);
-    m->triangle_edges = phks_malloc_array(h_count, sizeof(uint32_t));
-    m->edge_tris = phks_malloc_array(h_count, sizeof(uint32_t));
-    m->edge_tri_offset = phks_malloc_array(h_count + 1, sizeof(uint32_t));
-    m->edge_vertices = phks_malloc_array(h_count, 2 * sizeof(uint32_t));
+    size_t *bucket = phks__calloc(n + 1, sizeof *bucket);
+    half_edge *h = phks__malloc_array(h_count, sizeof *h);
+    m->triangle_edges = phks__malloc_array(h_count, sizeof(uint32_t));
+    m->edge_tris = phks__malloc_array(h_count, sizeof(uint32_t));
+    m->edge_tri_offset = phks__malloc_array(h_count + 1, sizeof(uint32_t));
+    m->edge_vertices = phks__malloc_array(h_count, 2 * sizeof(uint32_t));
     phks_status st = PHKS_OK;
     if (!bucket || !h || !m->triangle_edges || !m->edge_tris ||
         !m->edge_tri_offset || !m->edge_vertices) {
-        st = phks_fail_oom("mesh edges");
+        st = phks__fail_oom("mesh edges");
         goto done;
     }
     for (size_t s = 0; s < h_count; s++) {
@@ -284,9 +284,9 @@ static phks_status build_edges(phks_mesh *m)
     size_t boundary = 0;
     for (size_t i = 0; i < e; i++)
         boundary += m->edge_tri_offset[i + 1] - m->edge_tri_offset[i] == 1;
-    m->boundary_edges = phks_malloc_array(boundary ? boundary : 1, 2 * sizeof(uint32_t));
+    m->boundary_edges = phks__malloc_array(boundary ? boundary : 1, 2 * sizeof(uint32_t));
     if (!m->boundary_edges) {
-        st = phks_fail_oom("mesh boundary");
+        st = phks__fail_oom("mesh boundary");
         goto done;
     }
     m->boundary_edge_count = 0;
@@ -297,8 +297,8 @@ static phks_status build_edges(phks_mesh *m)
             m->boundary_edge_count++;
         }
 done:
-    phks_free(bucket);
-    phks_free(h);
+    phks__free(bucket);
+    phks__free(h);
     return st;
 }
 
@@ -314,11 +314,11 @@ static uint32_t find_root(uint32_t *parent, uint32_t v)
 static phks_status build_components(phks_mesh *m)
 {
     size_t n = m->vertex_count;
-    uint32_t *parent = phks_malloc_array(n, sizeof *parent);
-    m->vertex_component = phks_malloc_array(n, sizeof(uint32_t));
+    uint32_t *parent = phks__malloc_array(n, sizeof *parent);
+    m->vertex_component = phks__malloc_array(n, sizeof(uint32_t));
     if (!parent || !m->vertex_component) {
-        phks_free(parent);
-        return phks_fail_oom("mesh components");
+        phks__free(parent);
+        return phks__fail_oom("mesh components");
     }
     for (size_t v = 0; v < n; v++)
         parent[v] = (uint32_t)v;
@@ -334,20 +334,20 @@ static phks_status build_components(phks_mesh *m)
         m->vertex_component[v] = r == v ? (uint32_t)count++ : m->vertex_component[r];
     }
     m->component_count = count;
-    phks_free(parent);
+    phks__free(parent);
     return PHKS_OK;
 }
 
-phks_status phks_mesh_build(const double *xyz, size_t vertex_count,
+phks_status phks__mesh_build(const double *xyz, size_t vertex_count,
                             const uint32_t *triangles, size_t triangle_count,
                             const uint32_t *vertex_origin, phks_mesh **out)
 {
     phks_status st = check_input(xyz, vertex_count, triangles, triangle_count);
     if (st != PHKS_OK)
         return st;
-    phks_mesh *m = phks_calloc(1, sizeof *m);
+    phks_mesh *m = phks__calloc(1, sizeof *m);
     if (!m)
-        return phks_fail_oom("mesh");
+        return phks__fail_oom("mesh");
     st = compact(m, xyz, vertex_count, triangles, triangle_count, vertex_origin);
     if (st == PHKS_OK)
         st = build_edges(m);
@@ -368,9 +368,9 @@ phks_status phks_mesh_create(const double *xyz, size_t vertex_count,
     if (mesh)
         *mesh = NULL;
     if (!mesh || (!xyz && vertex_count) || (!triangles && triangle_count))
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "phks_mesh_create: NULL argument");
-    return phks_mesh_build(xyz, vertex_count, triangles, triangle_count, NULL,
+    return phks__mesh_build(xyz, vertex_count, triangles, triangle_count, NULL,
                            mesh);
 }
 
@@ -381,19 +381,19 @@ phks_status phks_mesh_create_f(const float *xyz, size_t vertex_count,
     if (mesh)
         *mesh = NULL;
     if (!mesh || (!xyz && vertex_count) || (!triangles && triangle_count))
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "phks_mesh_create_f: NULL argument");
     if (vertex_count > MAX_VERTICES)
-        return phks_fail(PHKS_ERROR_TOO_LARGE, "%zu vertices, more than %zu",
+        return phks__fail(PHKS_ERROR_TOO_LARGE, "%zu vertices, more than %zu",
                          vertex_count, MAX_VERTICES);
-    double *wide = phks_malloc_array(vertex_count, 3 * sizeof *wide);
+    double *wide = phks__malloc_array(vertex_count, 3 * sizeof *wide);
     if (!wide)
-        return phks_fail_oom("mesh vertices");
+        return phks__fail_oom("mesh vertices");
     for (size_t i = 0; i < 3 * vertex_count; i++)
         wide[i] = xyz[i];
-    phks_status st = phks_mesh_build(wide, vertex_count, triangles,
+    phks_status st = phks__mesh_build(wide, vertex_count, triangles,
                                      triangle_count, NULL, mesh);
-    phks_free(wide);
+    phks__free(wide);
     return st;
 }
 

@@ -4,12 +4,12 @@
  */
 #include "geometry/geometry.h"
 
-static phks_status build(phks_status st, phks_raw_mesh *raw, phks_mesh **mesh)
+static phks_status build(phks_status st, phks__raw_mesh *raw, phks_mesh **mesh)
 {
     if (st == PHKS_OK)
-        st = phks_mesh_build(raw->xyz, raw->vertex_count, raw->triangles,
+        st = phks__mesh_build(raw->xyz, raw->vertex_count, raw->triangles,
                              raw->triangle_count, raw->vertex_origin, mesh);
-    phks_raw_mesh_release(raw);
+    phks__raw_mesh_release(raw);
     return st;
 }
 
@@ -18,12 +18,12 @@ phks_status phks_mesh_load(const char *path, phks_mesh **mesh)
     if (mesh)
         *mesh = NULL;
     if (!path || !mesh)
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "phks_mesh_load: NULL argument");
-    phks_raw_mesh raw = {0};
-    phks_status st = build(phks_raw_mesh_read_file(path, &raw), &raw, mesh);
+    phks__raw_mesh raw = {0};
+    phks_status st = build(phks__raw_mesh_read_file(path, &raw), &raw, mesh);
     if (st != PHKS_OK)
-        phks_error_prefix(path);
+        phks__error_prefix(path);
     return st;
 }
 
@@ -33,13 +33,13 @@ phks_status phks_mesh_load_memory(const void *data, size_t size,
     if (mesh)
         *mesh = NULL;
     if (!data || !mesh)
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "phks_mesh_load_memory: NULL argument");
     if (format < PHKS_FORMAT_AUTO || format > PHKS_FORMAT_STL)
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "phks_mesh_load_memory: unknown format %d",
                          (int)format);
-    phks_raw_mesh raw = {0};
-    return build(phks_raw_mesh_read_memory(data, size, format, &raw), &raw,
+    phks__raw_mesh raw = {0};
+    return build(phks__raw_mesh_read_memory(data, size, format, &raw), &raw,
                  mesh);
 }

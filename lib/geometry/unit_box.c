@@ -24,7 +24,7 @@ static phks_status tick(const reporter *r, size_t i, size_t n)
 {
     if (!r->opt || i == 0 || i % STEP != 0)
         return PHKS_OK;
-    return phks_progress(r->opt, r->stage,
+    return phks__progress(r->opt, r->stage,
                          r->done + r->span * (double)i / (double)n);
 }
 
@@ -82,7 +82,7 @@ static void jacobi_rotate(double a[3][3], double v[3][3], int p, int q,
     }
 }
 
-void phks_sym3_eigen(const double matrix[9], double values[3],
+void phks__sym3_eigen(const double matrix[9], double values[3],
                      double vectors[9])
 {
     double a[3][3], v[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
@@ -156,7 +156,7 @@ static phks_status principal_axes(const phks_mesh *m, const reporter *rep,
             return st;
         double p[3][3], g[3];
         scaled_corners(m, t, unit, p);
-        double a = phks_triangle_area(p[0], p[1], p[2]);
+        double a = phks__triangle_area(p[0], p[1], p[2]);
         centroid(p[0], p[1], p[2], g);
         total += a;
         for (int d = 0; d < 3; d++)
@@ -170,7 +170,7 @@ static phks_status principal_axes(const phks_mesh *m, const reporter *rep,
             return st;
         double p[3][3], g[3];
         scaled_corners(m, t, unit, p);
-        double a = phks_triangle_area(p[0], p[1], p[2]);
+        double a = phks__triangle_area(p[0], p[1], p[2]);
         centroid(p[0], p[1], p[2], g);
         for (int i = 0; i < 3; i++)
             for (int j = 0; j < 3; j++)
@@ -178,20 +178,20 @@ static phks_status principal_axes(const phks_mesh *m, const reporter *rep,
     }
     for (int i = 0; i < 9; i++)
         if (!isfinite(cov[i]))
-            return phks_fail(PHKS_ERROR_SOLVER, "principal axes: the "
+            return phks__fail(PHKS_ERROR_SOLVER, "principal axes: the "
                                                 "covariance is not finite");
     double w[3];
-    phks_sym3_eigen(cov, w, axes); /* column j (row-major) is axis j */
+    phks__sym3_eigen(cov, w, axes); /* column j (row-major) is axis j */
     return PHKS_OK;
 }
 
-phks_status phks_unit_box_scale(const phks_mesh *m, phks_box box, double *scale)
+phks_status phks__unit_box_scale(const phks_mesh *m, phks_box box, double *scale)
 {
-    return phks_unit_box_scale_progress(m, box, NULL, PHKS_STAGE_OPERATOR, 0,
+    return phks__unit_box_scale_progress(m, box, NULL, PHKS_STAGE_OPERATOR, 0,
                                         0, scale);
 }
 
-phks_status phks_unit_box_scale_progress(const phks_mesh *m, phks_box box,
+phks_status phks__unit_box_scale_progress(const phks_mesh *m, phks_box box,
                                          const phks_options *opt,
                                          phks_stage stage, double done,
                                          double span, double *scale)
@@ -224,17 +224,17 @@ phks_status phks_unit_box_scale_progress(const phks_mesh *m, phks_box box,
     }
     double side = fmax(hi[0] - lo[0], fmax(hi[1] - lo[1], hi[2] - lo[2]));
     if (!(side > 0) || !isfinite(1 / side))
-        return phks_fail(PHKS_ERROR_ZERO_AREA, "the mesh has no extent");
+        return phks__fail(PHKS_ERROR_ZERO_AREA, "the mesh has no extent");
     *scale = 1 / side;
     return PHKS_OK;
 }
 
-void phks_vertex_areas(const phks_mesh *m, double scale, double *mass)
+void phks__vertex_areas(const phks_mesh *m, double scale, double *mass)
 {
-    phks_vertex_areas_progress(m, scale, NULL, PHKS_STAGE_OPERATOR, 0, 0, mass);
+    phks__vertex_areas_progress(m, scale, NULL, PHKS_STAGE_OPERATOR, 0, 0, mass);
 }
 
-phks_status phks_vertex_areas_progress(const phks_mesh *m, double scale,
+phks_status phks__vertex_areas_progress(const phks_mesh *m, double scale,
                                        const phks_options *opt,
                                        phks_stage stage, double done,
                                        double span, double *mass)
@@ -247,7 +247,7 @@ phks_status phks_vertex_areas_progress(const phks_mesh *m, double scale,
         if ((st = tick(&r, t, m->triangle_count)) != PHKS_OK)
             return st;
         const uint32_t *c = m->triangles + 3 * t;
-        double a = phks_triangle_area(m->xyz + 3 * c[0], m->xyz + 3 * c[1],
+        double a = phks__triangle_area(m->xyz + 3 * c[0], m->xyz + 3 * c[1],
                                       m->xyz + 3 * c[2]) *
                    scale * scale / 3;
         mass[c[0]] += a;

@@ -12,26 +12,26 @@
  * On success *xyz and *tri are library allocations owned by the caller.
  * Errors carry a message with a line number (text) or byte offset
  * (binary), without the file name (the loader adds it). */
-typedef struct phks_raw_mesh {
+typedef struct phks__raw_mesh {
     double *xyz;
     size_t vertex_count;
     uint32_t *triangles;
     size_t triangle_count;
     uint32_t *vertex_origin; /* NULL for identity; set by welding readers */
-} phks_raw_mesh;
+} phks__raw_mesh;
 
-void phks_raw_mesh_release(phks_raw_mesh *raw);
-phks_status phks_read_off(const char *data, size_t size, phks_raw_mesh *raw);
-phks_status phks_read_obj(const char *data, size_t size, phks_raw_mesh *raw);
-phks_status phks_read_ply(const char *data, size_t size, phks_raw_mesh *raw);
-phks_status phks_read_stl(const char *data, size_t size, phks_raw_mesh *raw);
+void phks__raw_mesh_release(phks__raw_mesh *raw);
+phks_status phks__read_off(const char *data, size_t size, phks__raw_mesh *raw);
+phks_status phks__read_obj(const char *data, size_t size, phks__raw_mesh *raw);
+phks_status phks__read_ply(const char *data, size_t size, phks__raw_mesh *raw);
+phks_status phks__read_stl(const char *data, size_t size, phks__raw_mesh *raw);
 
 /* The whole file at path, or the size bytes at data, read into *raw by
  * the reader its name or content picks (format: phks_format; AUTO sniffs
  * the content), gzip inflated first. Errors as the readers' (the caller
  * adds the file name). */
-phks_status phks_raw_mesh_read_file(const char *path, phks_raw_mesh *raw);
-phks_status phks_raw_mesh_read_memory(const void *data, size_t size,
-                                      phks_format format, phks_raw_mesh *raw);
+phks_status phks__raw_mesh_read_file(const char *path, phks__raw_mesh *raw);
+phks_status phks__raw_mesh_read_memory(const void *data, size_t size,
+                                      phks_format format, phks__raw_mesh *raw);
 
 #endif /* PHKS_IO_H */

@@ -23,13 +23,13 @@
  * the size a gzip trailer claims we trust before we have seen it. */
 #define DEFLATE_MAX_RATIO 1032
 
-void phks_raw_mesh_release(phks_raw_mesh *raw)
+void phks__raw_mesh_release(phks__raw_mesh *raw)
 {
     if (!raw)
         return;
-    phks_free(raw->xyz);
-    phks_free(raw->triangles);
-    phks_free(raw->vertex_origin);
+    phks__free(raw->xyz);
+    phks__free(raw->triangles);
+    phks__free(raw->vertex_origin);
     memset(raw, 0, sizeof *raw);
 }
 
@@ -45,7 +45,7 @@ static phks_status io_fail(const char *what, int err)
     if (strerror_r(err, text, sizeof text) != 0)
         snprintf(text, sizeof text, "error %d", err);
 #endif
-    return phks_fail(PHKS_ERROR_IO, "%s: %s", what, text);
+    return phks__fail(PHKS_ERROR_IO, "%s: %s", what, text);
 }
 
 static phks_status read_stream(FILE *f, size_t hint, char **out, size_t *size)
@@ -55,24 +55,24 @@ static phks_status read_stream(FILE *f, size_t hint, char **out, size_t *size)
     size_t cap = hint < SIZE_MAX - 1 ? hint + 1 : hint, len = 0;
     if (cap < 4096)
         cap = 4096;
-    char *buf = phks_malloc(cap);
+    char *buf = phks__malloc(cap);
     if (!buf)
-        return phks_fail_oom("file contents");
+        return phks__fail_oom("file contents");
     for (;;) {
         len += fread(buf + len, 1, cap - len, f);
         if (len < cap)
             break;
-        char *bigger = cap <= SIZE_MAX / 2 ? phks_realloc(buf, 2 * cap) : NULL;
+        char *bigger = cap <= SIZE_MAX / 2 ? phks__realloc(buf, 2 * cap) : NULL;
         if (!bigger) {
-            phks_free(buf);
-            return phks_fail_oom("file contents");
+            phks__free(buf);
+            return phks__fail_oom("file contents");
         }
         buf = bigger;
         cap *= 2;
     }
     if (ferror(f)) {
         int err = errno;
-        phks_free(buf);
+        phks__free(buf);
         return io_fail("cannot read", err);
     }
     *out = buf;
@@ -112,13 +112,13 @@ static bool is_gzip(const unsigned char *data, size_t size)
 static voidpf zlib_alloc(voidpf user, uInt items, uInt size)
 {
     (void)user;
-    return phks_malloc_array(items, size);
+    return phks__malloc_array(items, size);
 }
 
 static void zlib_free(voidpf user, voidpf ptr)
 {
     (void)user;
-    phks_free(ptr);
+    phks__free(ptr);
 }
 
 /* A first guess at the inflated size: the trailer's ISIZE (the size modulo
@@ -142,8 +142,8 @@ static size_t inflated_guess(const unsigned char *in, size_t size)
 static phks_status inflate_error(int ret, const z_stream *z, size_t offset)
 {
     if (ret == Z_MEM_ERROR)
-        return phks_fail_oom("gzip inflation");
-    return phks_fail(PHKS_ERROR_PARSE, "gzip data: byte offset %zu: %s",
+        return phks__fail_oom("gzip inflation");
+    return phks__fail(PHKS_ERROR_PARSE, "gzip data: byte offset %zu: %s",
                      offset, z->msg ? z->msg : "invalid compressed data");
 }
 
@@ -156,22 +156,22 @@ static phks_status inflate_all(z_stream *z, const unsigned char *in,
     size_t cap = inflated_guess(in, size), len = 0, used = 0;
     if (cap > PHKS_GZIP_LIMIT + 1)
         cap = PHKS_GZIP_LIMIT + 1;
-    char *buf = phks_malloc(cap);
+    char *buf = phks__malloc(cap);
     if (!buf)
-        return phks_fail_oom("gzip inflation");
+        return phks__fail_oom("gzip inflation");
     phks_status st = PHKS_OK;
     for (;;) {
         if (len == cap) {
             if (cap > PHKS_GZIP_LIMIT) {
-                st = phks_fail(PHKS_ERROR_TOO_LARGE,
+                st = phks__fail(PHKS_ERROR_TOO_LARGE,
                                "gzip data inflates to more than %zu bytes",
                                (size_t)PHKS_GZIP_LIMIT);
                 break;
             }
             size_t next = cap > PHKS_GZIP_LIMIT / 2 ? PHKS_GZIP_LIMIT + 1 : 2 * cap;
-            char *bigger = phks_realloc(buf, next);
+            char *bigger = phks__realloc(buf, next);
             if (!bigger) {
-                st = phks_fail_oom("gzip inflation");
+                st = phks__fail_oom("gzip inflation");
                 break;
             }
             buf = bigger;
@@ -188,7 +188,7 @@ static phks_status inflate_all(z_stream *z, const unsigned char *in,
         len = (size_t)((char *)z->next_out - buf);
         bool stuck = used == used_before && len == len_before;
         if (len > PHKS_GZIP_LIMIT) { /* the byte past the limit, even if last */
-            st = phks_fail(PHKS_ERROR_TOO_LARGE,
+            st = phks__fail(PHKS_ERROR_TOO_LARGE,
                            "gzip data inflates to more than %zu bytes",
                            (size_t)PHKS_GZIP_LIMIT);
             break;
@@ -201,7 +201,7 @@ static phks_status inflate_all(z_stream *z, const unsigned char *in,
             ret = inflateReset(z);
         }
         if (ret == Z_BUF_ERROR && stuck && z->avail_out > 0) {
-            st = phks_fail(PHKS_ERROR_TRUNCATED,
+            st = phks__fail(PHKS_ERROR_TRUNCATED,
                            "gzip data: byte offset %zu: the compressed data "
                            "ends early",
                            size);
@@ -213,7 +213,7 @@ static phks_status inflate_all(z_stream *z, const unsigned char *in,
         }
     }
     if (st != PHKS_OK) {
-        phks_free(buf);
+        phks__free(buf);
         return st;
     }
     *out = buf;
@@ -353,18 +353,18 @@ static phks_format sniff(const char *d, size_t size)
 
 /* Parses a whole uncompressed file held in memory. */
 static phks_status parse(const char *data, size_t size, phks_format format,
-                         phks_raw_mesh *raw)
+                         phks__raw_mesh *raw)
 {
     if (format == PHKS_FORMAT_AUTO)
         format = sniff(data, size);
     switch (format) {
-    case PHKS_FORMAT_OFF: return phks_read_off(data, size, raw);
-    case PHKS_FORMAT_OBJ: return phks_read_obj(data, size, raw);
-    case PHKS_FORMAT_PLY: return phks_read_ply(data, size, raw);
-    case PHKS_FORMAT_STL: return phks_read_stl(data, size, raw);
+    case PHKS_FORMAT_OFF: return phks__read_off(data, size, raw);
+    case PHKS_FORMAT_OBJ: return phks__read_obj(data, size, raw);
+    case PHKS_FORMAT_PLY: return phks__read_ply(data, size, raw);
+    case PHKS_FORMAT_STL: return phks__read_stl(data, size, raw);
     case PHKS_FORMAT_AUTO:
     default:
-        return phks_fail(PHKS_ERROR_UNKNOWN_FORMAT,
+        return phks__fail(PHKS_ERROR_UNKNOWN_FORMAT,
                          "not an OFF, OBJ, PLY or STL file");
     }
 }
@@ -372,24 +372,24 @@ static phks_status parse(const char *data, size_t size, phks_format format,
 /* Inflates gzip data first; takes ownership of *owned when set, so the
  * compressed bytes are freed before the much larger parse begins. */
 static phks_status load(const char *data, size_t size, char *owned,
-                        phks_format format, phks_raw_mesh *raw)
+                        phks_format format, phks__raw_mesh *raw)
 {
     char *inflated = NULL;
     if (is_gzip((const unsigned char *)data, size)) {
         phks_status st = gunzip(data, size, &inflated, &size);
-        phks_free(owned);
+        phks__free(owned);
         owned = NULL;
         if (st != PHKS_OK)
             return st;
         data = inflated;
     }
     phks_status st = parse(data, size, format, raw);
-    phks_free(inflated);
-    phks_free(owned);
+    phks__free(inflated);
+    phks__free(owned);
     return st;
 }
 
-phks_status phks_raw_mesh_read_file(const char *path, phks_raw_mesh *raw)
+phks_status phks__raw_mesh_read_file(const char *path, phks__raw_mesh *raw)
 {
     char *data = NULL;
     size_t size = 0;
@@ -399,8 +399,8 @@ phks_status phks_raw_mesh_read_file(const char *path, phks_raw_mesh *raw)
     return st;
 }
 
-phks_status phks_raw_mesh_read_memory(const void *data, size_t size,
-                                      phks_format format, phks_raw_mesh *raw)
+phks_status phks__raw_mesh_read_memory(const void *data, size_t size,
+                                      phks_format format, phks__raw_mesh *raw)
 {
     return load(data, size, NULL, format, raw);
 }

@@ -63,7 +63,7 @@ typedef struct ply_file {
     size_t prop_count, prop_capacity;
     uint64_t vertex_count;
     double *xyz;
-    phks_tri_list tri;
+    phks__tri_list tri;
 } ply_file;
 
 /* ------------------------------------------------------------------ header */
@@ -74,26 +74,26 @@ static phks_status grow(void **array, size_t *capacity, size_t count,
     if (count < *capacity)
         return PHKS_OK;
     size_t cap = *capacity < 8 ? 8 : 2 * *capacity;
-    void *p = phks_realloc_array(*array, cap, item);
+    void *p = phks__realloc_array(*array, cap, item);
     if (!p)
-        return phks_fail_oom("PLY header");
+        return phks__fail_oom("PLY header");
     *array = p;
     *capacity = cap;
     return PHKS_OK;
 }
 
-static phks_status header_error(const phks_scan *s, const char *what,
+static phks_status header_error(const phks__scan *s, const char *what,
                                 const char *t, size_t n)
 {
     char q[40];
-    phks_token_quote(t, n, q, sizeof q);
-    return phks_fail(PHKS_ERROR_PARSE, "line %zu: %s '%s'", s->line, what, q);
+    phks__token_quote(t, n, q, sizeof q);
+    return phks__fail(PHKS_ERROR_PARSE, "line %zu: %s '%s'", s->line, what, q);
 }
 
 static ply_type parse_type(const char *t, size_t n)
 {
     for (size_t i = 0; i < sizeof type_names / sizeof *type_names; i++)
-        if (phks_token_is(t, n, type_names[i].name))
+        if (phks__token_is(t, n, type_names[i].name))
             return type_names[i].type;
     return PLY_NONE;
 }
@@ -103,48 +103,48 @@ static bool is_integer(ply_type t)
     return t != PLY_NONE && t != PLY_F32 && t != PLY_F64;
 }
 
-static phks_status read_format(ply_file *f, phks_scan *s)
+static phks_status read_format(ply_file *f, phks__scan *s)
 {
     const char *t;
-    size_t n = phks_scan_token(s, &t);
-    if (phks_token_is(t, n, "ascii"))
+    size_t n = phks__scan_token(s, &t);
+    if (phks__token_is(t, n, "ascii"))
         f->format = FORMAT_ASCII;
-    else if (phks_token_is(t, n, "binary_little_endian"))
+    else if (phks__token_is(t, n, "binary_little_endian"))
         f->format = FORMAT_LE;
-    else if (phks_token_is(t, n, "binary_big_endian"))
+    else if (phks__token_is(t, n, "binary_big_endian"))
         f->format = FORMAT_BE;
     else
         return header_error(s, "unknown PLY format", t, n);
-    n = phks_scan_token(s, &t);
-    if (!phks_token_is(t, n, "1.0") && !phks_token_is(t, n, "1"))
+    n = phks__scan_token(s, &t);
+    if (!phks__token_is(t, n, "1.0") && !phks__token_is(t, n, "1"))
         return header_error(s, "unsupported PLY version", t, n);
     return PHKS_OK;
 }
 
-static phks_status read_element(ply_file *f, phks_scan *s)
+static phks_status read_element(ply_file *f, phks__scan *s)
 {
     const char *t;
-    size_t n = phks_scan_token(s, &t);
+    size_t n = phks__scan_token(s, &t);
     if (n == 0)
-        return phks_fail(PHKS_ERROR_PARSE, "line %zu: element without a name",
+        return phks__fail(PHKS_ERROR_PARSE, "line %zu: element without a name",
                          s->line);
     int64_t count;
-    phks_scan_result r = phks_scan_int(s, &count);
-    if (r == PHKS_SCAN_RANGE)
+    phks__scan_result r = phks__scan_int(s, &count);
+    if (r == PHKS__SCAN_RANGE)
         count = INT64_MAX; /* refused below as too large */
-    else if (r != PHKS_SCAN_OK)
-        return phks_scan_fail(s, r, "element %.*s, count", (int)(n < 40 ? n : 40), t);
+    else if (r != PHKS__SCAN_OK)
+        return phks__scan_fail(s, r, "element %.*s, count", (int)(n < 40 ? n : 40), t);
     if (count < 0)
-        return phks_fail(PHKS_ERROR_PARSE, "line %zu: element %.*s: negative "
+        return phks__fail(PHKS_ERROR_PARSE, "line %zu: element %.*s: negative "
                          "count %lld", s->line, (int)(n < 40 ? n : 40), t,
                          (long long)count);
-    if ((uint64_t)count > PHKS_MAX_COUNT)
-        return phks_fail(PHKS_ERROR_TOO_LARGE, "line %zu: element %.*s: count "
+    if ((uint64_t)count > PHKS__MAX_COUNT)
+        return phks__fail(PHKS_ERROR_TOO_LARGE, "line %zu: element %.*s: count "
                          "%lld is more than %llu", s->line,
                          (int)(n < 40 ? n : 40), t, (long long)count,
-                         (unsigned long long)PHKS_MAX_COUNT);
-    ply_kind kind = phks_token_is(t, n, "vertex") ? KIND_VERTEX
-                    : phks_token_is(t, n, "face") ? KIND_FACE
+                         (unsigned long long)PHKS__MAX_COUNT);
+    ply_kind kind = phks__token_is(t, n, "vertex") ? KIND_VERTEX
+                    : phks__token_is(t, n, "face") ? KIND_FACE
                                                   : KIND_OTHER;
     for (size_t i = 0; kind != KIND_OTHER && i < f->element_count; i++)
         if (f->elements[i].kind == kind)
@@ -165,34 +165,34 @@ static ply_role property_role(const ply_element *e, const char *t, size_t n)
 {
     if (e->kind == KIND_VERTEX && n == 1 && (t[0] == 'x' || t[0] == 'y' || t[0] == 'z'))
         return (ply_role)(ROLE_X + (t[0] - 'x'));
-    if (e->kind == KIND_FACE && (phks_token_is(t, n, "vertex_indices") ||
-                                 phks_token_is(t, n, "vertex_index")))
+    if (e->kind == KIND_FACE && (phks__token_is(t, n, "vertex_indices") ||
+                                 phks__token_is(t, n, "vertex_index")))
         return ROLE_INDICES;
     return ROLE_SKIP;
 }
 
-static phks_status read_property(ply_file *f, phks_scan *s)
+static phks_status read_property(ply_file *f, phks__scan *s)
 {
     if (f->element_count == 0)
-        return phks_fail(PHKS_ERROR_PARSE,
+        return phks__fail(PHKS_ERROR_PARSE,
                          "line %zu: a property before any element", s->line);
     ply_element *e = &f->elements[f->element_count - 1];
     ply_property p = {PLY_NONE, PLY_NONE, ROLE_SKIP};
     const char *t;
-    size_t n = phks_scan_token(s, &t);
-    if (phks_token_is(t, n, "list")) {
-        n = phks_scan_token(s, &t);
+    size_t n = phks__scan_token(s, &t);
+    if (phks__token_is(t, n, "list")) {
+        n = phks__scan_token(s, &t);
         p.count_type = parse_type(t, n);
         if (!is_integer(p.count_type))
             return header_error(s, "a list length needs an integer type, not", t, n);
-        n = phks_scan_token(s, &t);
+        n = phks__scan_token(s, &t);
     }
     p.type = parse_type(t, n);
     if (p.type == PLY_NONE)
         return header_error(s, "unknown property type", t, n);
-    n = phks_scan_token(s, &t);
+    n = phks__scan_token(s, &t);
     if (n == 0)
-        return phks_fail(PHKS_ERROR_PARSE, "line %zu: a property without a name",
+        return phks__fail(PHKS_ERROR_PARSE, "line %zu: a property without a name",
                          s->line);
     p.role = property_role(e, t, n);
     bool list = p.count_type != PLY_NONE;
@@ -232,7 +232,7 @@ static phks_status check_roles(const ply_file *f)
         if (e->kind == KIND_FACE && !(seen & 1u << ROLE_INDICES))
             missing = "vertex_indices";
         if (missing)
-            return phks_fail(PHKS_ERROR_PARSE,
+            return phks__fail(PHKS_ERROR_PARSE,
                              "line %zu: element %.*s has no property %s",
                              e->line, e->name_len, e->name, missing);
     }
@@ -241,41 +241,41 @@ static phks_status check_roles(const ply_file *f)
 
 static phks_status read_header(ply_file *f)
 {
-    phks_scan s;
-    phks_scan_init(&s, f->data, f->size);
+    phks__scan s;
+    phks__scan_init(&s, f->data, f->size);
     const char *t;
-    size_t n = phks_scan_token(&s, &t);
-    if (!phks_token_is(t, n, "ply") || !phks_scan_eol(&s))
-        return phks_fail(PHKS_ERROR_PARSE, "line 1: not a PLY file");
-    phks_scan_next_line(&s);
+    size_t n = phks__scan_token(&s, &t);
+    if (!phks__token_is(t, n, "ply") || !phks__scan_eol(&s))
+        return phks__fail(PHKS_ERROR_PARSE, "line 1: not a PLY file");
+    phks__scan_next_line(&s);
     for (;;) {
         if (s.p == s.end)
-            return phks_fail(PHKS_ERROR_TRUNCATED,
+            return phks__fail(PHKS_ERROR_TRUNCATED,
                              "line %zu: the data ends before end_header", s.line);
-        n = phks_scan_token(&s, &t);
+        n = phks__scan_token(&s, &t);
         phks_status st = PHKS_OK;
-        if (phks_token_is(t, n, "format"))
+        if (phks__token_is(t, n, "format"))
             st = read_format(f, &s);
-        else if (phks_token_is(t, n, "element"))
+        else if (phks__token_is(t, n, "element"))
             st = read_element(f, &s);
-        else if (phks_token_is(t, n, "property"))
+        else if (phks__token_is(t, n, "property"))
             st = read_property(f, &s);
-        else if (phks_token_is(t, n, "end_header"))
+        else if (phks__token_is(t, n, "end_header"))
             break;
-        else if (n != 0 && !phks_token_is(t, n, "comment") &&
-                 !phks_token_is(t, n, "obj_info"))
+        else if (n != 0 && !phks__token_is(t, n, "comment") &&
+                 !phks__token_is(t, n, "obj_info"))
             st = header_error(&s, "unknown header keyword", t, n);
         if (st != PHKS_OK)
             return st;
-        phks_scan_next_line(&s);
+        phks__scan_next_line(&s);
     }
     if (f->format == FORMAT_NONE)
-        return phks_fail(PHKS_ERROR_PARSE, "line %zu: no format line before "
+        return phks__fail(PHKS_ERROR_PARSE, "line %zu: no format line before "
                          "end_header", s.line);
-    if (!phks_scan_eol(&s))
-        return phks_fail(PHKS_ERROR_PARSE, "line %zu: text after end_header",
+    if (!phks__scan_eol(&s))
+        return phks__fail(PHKS_ERROR_PARSE, "line %zu: text after end_header",
                          s.line);
-    phks_scan_next_line(&s);
+    phks__scan_next_line(&s);
     f->data_start = (size_t)(s.p - f->data);
     f->data_line = s.line;
     return check_roles(f);
@@ -309,7 +309,7 @@ static phks_status check_counts(const ply_file *f)
         const ply_element *e = &f->elements[i];
         uint64_t record = min_record_size(f, e);
         if (record && e->count > (left - need) / record)
-            return phks_fail(PHKS_ERROR_TOO_LARGE,
+            return phks__fail(PHKS_ERROR_TOO_LARGE,
                              "line %zu: element %.*s: %llu records of at least "
                              "%llu bytes do not fit in the %llu bytes of data",
                              e->line, e->name_len, e->name,
@@ -368,7 +368,7 @@ static double load_value(const unsigned char *p, ply_type t, bool big)
 static phks_status bin_truncated(const bin_cursor *c, const ply_element *e,
                                  uint64_t record)
 {
-    return phks_fail(PHKS_ERROR_TRUNCATED,
+    return phks__fail(PHKS_ERROR_TRUNCATED,
                      "byte offset %zu: element %.*s, record %llu: the data "
                      "ends early",
                      c->pos, e->name_len, e->name, (unsigned long long)record);
@@ -384,7 +384,7 @@ static phks_status bin_list_length(bin_cursor *c, const ply_element *e,
         return bin_truncated(c, e, record);
     double v = load_value(c->data + c->pos, p->count_type, c->big);
     if (v < 0)
-        return phks_fail(PHKS_ERROR_PARSE,
+        return phks__fail(PHKS_ERROR_PARSE,
                          "byte offset %zu: element %.*s, record %llu: negative "
                          "list length %.0f",
                          c->pos, e->name_len, e->name, (unsigned long long)record, v);
@@ -405,7 +405,7 @@ static phks_status bin_face_list(ply_file *f, bin_cursor *c,
     if (st != PHKS_OK)
         return st;
     if (n < 3)
-        return phks_fail(PHKS_ERROR_PARSE,
+        return phks__fail(PHKS_ERROR_PARSE,
                          "byte offset %zu: face %llu has %llu vertices; at "
                          "least 3 are needed",
                          at, (unsigned long long)record, (unsigned long long)n);
@@ -414,7 +414,7 @@ static phks_status bin_face_list(ply_file *f, bin_cursor *c,
     for (uint64_t k = 0; k < n; k++, c->pos += is) {
         double v = load_value(c->data + c->pos, p->type, c->big);
         if (v < 0 || v >= (double)f->vertex_count)
-            return phks_fail(PHKS_ERROR_INDEX_OUT_OF_RANGE,
+            return phks__fail(PHKS_ERROR_INDEX_OUT_OF_RANGE,
                              "byte offset %zu: face %llu: vertex index %.0f, "
                              "but there are %llu vertices",
                              c->pos, (unsigned long long)record, v,
@@ -422,7 +422,7 @@ static phks_status bin_face_list(ply_file *f, bin_cursor *c,
         uint32_t i = (uint32_t)v;
         if (k == 0)
             first = i;
-        else if (k >= 2 && (st = phks_tri_list_push(&f->tri, first, prev, i)) != PHKS_OK)
+        else if (k >= 2 && (st = phks__tri_list_push(&f->tri, first, prev, i)) != PHKS_OK)
             return st;
         prev = i;
     }
@@ -450,7 +450,7 @@ static phks_status bin_record(ply_file *f, bin_cursor *c, const ply_element *e,
             if (p->role != ROLE_SKIP) {
                 double v = load_value(c->data + c->pos, p->type, c->big);
                 if (!isfinite(v))
-                    return phks_fail(PHKS_ERROR_NON_FINITE,
+                    return phks__fail(PHKS_ERROR_NON_FINITE,
                                      "byte offset %zu: vertex %llu: "
                                      "coordinate %c is not finite",
                                      c->pos, (unsigned long long)record,
@@ -490,29 +490,29 @@ static phks_status read_binary(ply_file *f)
 
 /* ------------------------------------------------------------- ascii data */
 
-static phks_status ascii_skip(phks_scan *s, const ply_element *e, uint64_t record)
+static phks_status ascii_skip(phks__scan *s, const ply_element *e, uint64_t record)
 {
-    phks_scan_space(s);
+    phks__scan_space(s);
     if (s->p == s->end)
-        return phks_fail(PHKS_ERROR_TRUNCATED,
+        return phks__fail(PHKS_ERROR_TRUNCATED,
                          "line %zu: element %.*s, record %llu: the data ends "
                          "early",
                          s->line, e->name_len, e->name, (unsigned long long)record);
     const char *t;
-    phks_scan_token(s, &t);
+    phks__scan_token(s, &t);
     return PHKS_OK;
 }
 
-static phks_status ascii_list_length(phks_scan *s, const ply_element *e,
+static phks_status ascii_list_length(phks__scan *s, const ply_element *e,
                                      uint64_t record, int64_t *n)
 {
-    phks_scan_space(s);
-    phks_scan_result r = phks_scan_int(s, n);
-    if (r != PHKS_SCAN_OK)
-        return phks_scan_fail(s, r, "element %.*s, record %llu, list length",
+    phks__scan_space(s);
+    phks__scan_result r = phks__scan_int(s, n);
+    if (r != PHKS__SCAN_OK)
+        return phks__scan_fail(s, r, "element %.*s, record %llu, list length",
                               e->name_len, e->name, (unsigned long long)record);
     if (*n < 0)
-        return phks_fail(PHKS_ERROR_PARSE,
+        return phks__fail(PHKS_ERROR_PARSE,
                          "line %zu: element %.*s, record %llu: negative list "
                          "length %lld",
                          s->line, e->name_len, e->name,
@@ -520,7 +520,7 @@ static phks_status ascii_list_length(phks_scan *s, const ply_element *e,
     return PHKS_OK;
 }
 
-static phks_status ascii_face_list(ply_file *f, phks_scan *s,
+static phks_status ascii_face_list(ply_file *f, phks__scan *s,
                                    const ply_element *e, uint64_t record)
 {
     int64_t n;
@@ -528,20 +528,20 @@ static phks_status ascii_face_list(ply_file *f, phks_scan *s,
     if (st != PHKS_OK)
         return st;
     if (n < 3)
-        return phks_fail(PHKS_ERROR_PARSE,
+        return phks__fail(PHKS_ERROR_PARSE,
                          "line %zu: face %llu has %lld vertices; at least 3 "
                          "are needed",
                          s->line, (unsigned long long)record, (long long)n);
     uint32_t first = 0, prev = 0;
     for (int64_t k = 0; k < n; k++) {
         int64_t v;
-        phks_scan_space(s);
-        phks_scan_result r = phks_scan_int(s, &v);
-        if (r != PHKS_SCAN_OK)
-            return phks_scan_fail(s, r, "face %llu, vertex %lld",
+        phks__scan_space(s);
+        phks__scan_result r = phks__scan_int(s, &v);
+        if (r != PHKS__SCAN_OK)
+            return phks__scan_fail(s, r, "face %llu, vertex %lld",
                                   (unsigned long long)record, (long long)k);
         if (v < 0 || (uint64_t)v >= f->vertex_count)
-            return phks_fail(PHKS_ERROR_INDEX_OUT_OF_RANGE,
+            return phks__fail(PHKS_ERROR_INDEX_OUT_OF_RANGE,
                              "line %zu: face %llu: vertex index %lld, but there "
                              "are %llu vertices",
                              s->line, (unsigned long long)record, (long long)v,
@@ -549,14 +549,14 @@ static phks_status ascii_face_list(ply_file *f, phks_scan *s,
         if (k == 0)
             first = (uint32_t)v;
         else if (k >= 2 &&
-                 (st = phks_tri_list_push(&f->tri, first, prev, (uint32_t)v)) != PHKS_OK)
+                 (st = phks__tri_list_push(&f->tri, first, prev, (uint32_t)v)) != PHKS_OK)
             return st;
         prev = (uint32_t)v;
     }
     return PHKS_OK;
 }
 
-static phks_status ascii_record(ply_file *f, phks_scan *s, const ply_element *e,
+static phks_status ascii_record(ply_file *f, phks__scan *s, const ply_element *e,
                                 uint64_t record)
 {
     for (size_t j = e->first; j < e->first + e->n; j++) {
@@ -571,10 +571,10 @@ static phks_status ascii_record(ply_file *f, phks_scan *s, const ply_element *e,
                 st = ascii_skip(s, e, record);
         } else if (p->role != ROLE_SKIP) {
             int axis = p->role - ROLE_X;
-            phks_scan_space(s);
-            phks_scan_result r = phks_scan_double(s, f->xyz + 3 * record + axis);
-            if (r != PHKS_SCAN_OK)
-                return phks_scan_fail(s, r, "vertex %llu, coordinate %c",
+            phks__scan_space(s);
+            phks__scan_result r = phks__scan_double(s, f->xyz + 3 * record + axis);
+            if (r != PHKS__SCAN_OK)
+                return phks__scan_fail(s, r, "vertex %llu, coordinate %c",
                                       (unsigned long long)record, "xyz"[axis]);
         } else
             st = ascii_skip(s, e, record);
@@ -586,8 +586,8 @@ static phks_status ascii_record(ply_file *f, phks_scan *s, const ply_element *e,
 
 static phks_status read_ascii(ply_file *f)
 {
-    phks_scan s;
-    phks_scan_init(&s, f->data + f->data_start, f->size - f->data_start);
+    phks__scan s;
+    phks__scan_init(&s, f->data + f->data_start, f->size - f->data_start);
     s.line = f->data_line;
     for (size_t i = 0; i < f->element_count; i++) {
         const ply_element *e = &f->elements[i];
@@ -614,27 +614,27 @@ static phks_status read_body(ply_file *f)
         if (f->elements[i].kind == KIND_FACE)
             faces = f->elements[i].count;
     if (faces == 0)
-        return phks_fail(PHKS_ERROR_NO_TRIANGLES, "the file has no faces");
-    f->xyz = phks_malloc_array((size_t)f->vertex_count, 3 * sizeof *f->xyz);
+        return phks__fail(PHKS_ERROR_NO_TRIANGLES, "the file has no faces");
+    f->xyz = phks__malloc_array((size_t)f->vertex_count, 3 * sizeof *f->xyz);
     if (!f->xyz)
-        return phks_fail_oom("PLY vertices");
-    if ((st = phks_tri_list_reserve(&f->tri, (size_t)faces)) != PHKS_OK)
+        return phks__fail_oom("PLY vertices");
+    if ((st = phks__tri_list_reserve(&f->tri, (size_t)faces)) != PHKS_OK)
         return st;
     return f->format == FORMAT_ASCII ? read_ascii(f) : read_binary(f);
 }
 
-phks_status phks_read_ply(const char *data, size_t size, phks_raw_mesh *raw)
+phks_status phks__read_ply(const char *data, size_t size, phks__raw_mesh *raw)
 {
     memset(raw, 0, sizeof *raw);
     ply_file f = {0};
     f.data = data;
     f.size = size;
     phks_status st = read_body(&f);
-    phks_free(f.elements);
-    phks_free(f.props);
+    phks__free(f.elements);
+    phks__free(f.props);
     if (st != PHKS_OK) {
-        phks_free(f.xyz);
-        phks_free(f.tri.v);
+        phks__free(f.xyz);
+        phks__free(f.tri.v);
         return st;
     }
     raw->xyz = f.xyz;

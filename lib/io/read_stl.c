@@ -49,18 +49,18 @@ static size_t hash3(const double *p)
 
 static void welder_release(welder *w)
 {
-    phks_free(w->xyz);
-    phks_free(w->origin);
-    phks_free(w->table);
+    phks__free(w->xyz);
+    phks__free(w->origin);
+    phks__free(w->table);
 }
 
 /* Doubles the table, keeping it at most half full so probes stay short. */
 static phks_status rehash(welder *w)
 {
     size_t size = w->table ? 2 * (w->mask + 1) : 4096;
-    uint32_t *table = phks_malloc_array(size, sizeof *table);
+    uint32_t *table = phks__malloc_array(size, sizeof *table);
     if (!table)
-        return phks_fail_oom("STL vertex welding");
+        return phks__fail_oom("STL vertex welding");
     for (size_t i = 0; i < size; i++)
         table[i] = EMPTY;
     for (size_t v = 0; v < w->count; v++) {
@@ -69,7 +69,7 @@ static phks_status rehash(welder *w)
             h = (h + 1) & (size - 1);
         table[h] = (uint32_t)v;
     }
-    phks_free(w->table);
+    phks__free(w->table);
     w->table = table;
     w->mask = size - 1;
     return PHKS_OK;
@@ -79,14 +79,14 @@ static phks_status add_vertex(welder *w, const double *p, uint32_t corner)
 {
     if (w->count == w->capacity) {
         size_t cap = w->capacity < 1024 ? 1024 : 2 * w->capacity;
-        double *xyz = phks_realloc_array(w->xyz, cap, 3 * sizeof *xyz);
+        double *xyz = phks__realloc_array(w->xyz, cap, 3 * sizeof *xyz);
         if (xyz)
             w->xyz = xyz;
-        uint32_t *origin = phks_realloc_array(w->origin, cap, sizeof *origin);
+        uint32_t *origin = phks__realloc_array(w->origin, cap, sizeof *origin);
         if (origin)
             w->origin = origin;
         if (!xyz || !origin)
-            return phks_fail_oom("STL vertices");
+            return phks__fail_oom("STL vertices");
         w->capacity = cap;
     }
     memcpy(w->xyz + 3 * w->count, p, 3 * sizeof *p);
@@ -143,24 +143,24 @@ static float load_f32le(const unsigned char *p)
 }
 
 static phks_status read_binary(const unsigned char *data, size_t size,
-                               welder *w, phks_tri_list *tri)
+                               welder *w, phks__tri_list *tri)
 {
     uint32_t facets = load_u32le(data + 80);
-    if ((uint64_t)facets * 3 > PHKS_MAX_COUNT)
-        return phks_fail(PHKS_ERROR_TOO_LARGE,
+    if ((uint64_t)facets * 3 > PHKS__MAX_COUNT)
+        return phks__fail(PHKS_ERROR_TOO_LARGE,
                          "byte offset 80: %lu facets, more than %llu",
                          (unsigned long)facets,
-                         (unsigned long long)(PHKS_MAX_COUNT / 3));
+                         (unsigned long long)(PHKS__MAX_COUNT / 3));
     uint64_t need = HEADER_BYTES + (uint64_t)facets * FACET_BYTES;
     if (need > size)
-        return phks_fail(PHKS_ERROR_TOO_LARGE,
+        return phks__fail(PHKS_ERROR_TOO_LARGE,
                          "byte offset 80: %lu facets need %llu bytes, but the "
                          "data has %zu",
                          (unsigned long)facets, (unsigned long long)need, size);
     if (facets == 0)
-        return phks_fail(PHKS_ERROR_NO_TRIANGLES,
+        return phks__fail(PHKS_ERROR_NO_TRIANGLES,
                          "byte offset 80: the file declares no facets");
-    phks_status st = phks_tri_list_reserve(tri, facets);
+    phks_status st = phks__tri_list_reserve(tri, facets);
     for (uint32_t f = 0; st == PHKS_OK && f < facets; f++) {
         const unsigned char *facet = data + HEADER_BYTES + (size_t)f * FACET_BYTES;
         uint32_t v[3];
@@ -169,7 +169,7 @@ static phks_status read_binary(const unsigned char *data, size_t size,
             for (int d = 0; d < 3; d++) {
                 p[d] = load_f32le(facet + 12 + 12 * k + 4 * d);
                 if (!isfinite(p[d]))
-                    return phks_fail(PHKS_ERROR_NON_FINITE,
+                    return phks__fail(PHKS_ERROR_NON_FINITE,
                                      "byte offset %zu: facet %lu, corner %d: "
                                      "coordinate %c is not finite",
                                      (size_t)(facet + 12 + 12 * k + 4 * d - data),
@@ -178,7 +178,7 @@ static phks_status read_binary(const unsigned char *data, size_t size,
             st = weld(w, p, 3 * f + (uint32_t)k, &v[k]);
         }
         if (st == PHKS_OK)
-            st = phks_tri_list_push(tri, v[0], v[1], v[2]);
+            st = phks__tri_list_push(tri, v[0], v[1], v[2]);
     }
     return st;
 }
@@ -186,63 +186,63 @@ static phks_status read_binary(const unsigned char *data, size_t size,
 /* ------------------------------------------------------------------- ascii */
 
 /* Keywords are matched without case: some writers shout. */
-static phks_status expect(phks_scan *s, const char *word)
+static phks_status expect(phks__scan *s, const char *word)
 {
-    phks_scan_space(s);
+    phks__scan_space(s);
     const char *t;
-    size_t n = phks_scan_token(s, &t);
-    if (phks_token_is_nocase(t, n, word))
+    size_t n = phks__scan_token(s, &t);
+    if (phks__token_is_nocase(t, n, word))
         return PHKS_OK;
     if (n == 0)
-        return phks_fail(PHKS_ERROR_TRUNCATED,
+        return phks__fail(PHKS_ERROR_TRUNCATED,
                          "line %zu: the data ends before '%s'", s->line, word);
     char q[40];
-    phks_token_quote(t, n, q, sizeof q);
-    return phks_fail(PHKS_ERROR_PARSE, "line %zu: expected '%s', found '%s'",
+    phks__token_quote(t, n, q, sizeof q);
+    return phks__fail(PHKS_ERROR_PARSE, "line %zu: expected '%s', found '%s'",
                      s->line, word, q);
 }
 
 /* One "facet ... endfacet" after its keyword; loops of more than three
  * corners are fan-triangulated. */
-static phks_status read_facet(phks_scan *s, size_t facet, uint64_t *corners,
-                              welder *w, phks_tri_list *tri)
+static phks_status read_facet(phks__scan *s, size_t facet, uint64_t *corners,
+                              welder *w, phks__tri_list *tri)
 {
-    phks_scan_next_line(s); /* the normal: recomputed, never trusted */
+    phks__scan_next_line(s); /* the normal: recomputed, never trusted */
     phks_status st = expect(s, "outer");
     if (st == PHKS_OK)
         st = expect(s, "loop");
     uint32_t first = 0, prev = 0;
     size_t n = 0;
     for (; st == PHKS_OK; n++) {
-        phks_scan_space(s);
+        phks__scan_space(s);
         const char *t;
-        size_t len = phks_scan_token(s, &t);
-        if (phks_token_is_nocase(t, len, "endloop"))
+        size_t len = phks__scan_token(s, &t);
+        if (phks__token_is_nocase(t, len, "endloop"))
             break;
-        if (!phks_token_is_nocase(t, len, "vertex")) {
+        if (!phks__token_is_nocase(t, len, "vertex")) {
             s->p = t;
             return expect(s, n < 3 ? "vertex" : "endloop");
         }
         double p[3];
         for (int d = 0; d < 3; d++) {
-            phks_scan_result r = phks_scan_double(s, p + d);
-            if (r != PHKS_SCAN_OK)
-                return phks_scan_fail(s, r, "facet %zu, corner %zu, coordinate %c",
+            phks__scan_result r = phks__scan_double(s, p + d);
+            if (r != PHKS__SCAN_OK)
+                return phks__scan_fail(s, r, "facet %zu, corner %zu, coordinate %c",
                                       facet, n, "xyz"[d]);
         }
-        if (*corners >= PHKS_MAX_COUNT)
-            return phks_fail(PHKS_ERROR_TOO_LARGE, "line %zu: more than %llu "
-                             "corners", s->line, (unsigned long long)PHKS_MAX_COUNT);
+        if (*corners >= PHKS__MAX_COUNT)
+            return phks__fail(PHKS_ERROR_TOO_LARGE, "line %zu: more than %llu "
+                             "corners", s->line, (unsigned long long)PHKS__MAX_COUNT);
         uint32_t v = 0;
         st = weld(w, p, (uint32_t)(*corners)++, &v);
         if (st == PHKS_OK && n == 0)
             first = v;
         else if (st == PHKS_OK && n >= 2)
-            st = phks_tri_list_push(tri, first, prev, v);
+            st = phks__tri_list_push(tri, first, prev, v);
         prev = v;
     }
     if (st == PHKS_OK && n < 3)
-        return phks_fail(PHKS_ERROR_PARSE,
+        return phks__fail(PHKS_ERROR_PARSE,
                          "line %zu: facet %zu has %zu corners; at least 3 are "
                          "needed",
                          s->line, facet, n);
@@ -250,30 +250,30 @@ static phks_status read_facet(phks_scan *s, size_t facet, uint64_t *corners,
 }
 
 static phks_status read_ascii(const char *data, size_t size, welder *w,
-                              phks_tri_list *tri)
+                              phks__tri_list *tri)
 {
-    phks_scan s;
-    phks_scan_init(&s, data, size);
+    phks__scan s;
+    phks__scan_init(&s, data, size);
     phks_status st = expect(&s, "solid");
     size_t facets = 0;
     uint64_t corners = 0;
     while (st == PHKS_OK) {
-        phks_scan_next_line(&s); /* the rest of a solid or endsolid line */
-        phks_scan_space(&s);
+        phks__scan_next_line(&s); /* the rest of a solid or endsolid line */
+        phks__scan_space(&s);
         if (s.p == s.end)
             break; /* a missing final endsolid is forgiven */
         const char *t;
-        size_t n = phks_scan_token(&s, &t);
-        if (phks_token_is_nocase(t, n, "facet"))
+        size_t n = phks__scan_token(&s, &t);
+        if (phks__token_is_nocase(t, n, "facet"))
             st = read_facet(&s, facets++, &corners, w, tri);
-        else if (!phks_token_is_nocase(t, n, "endsolid") &&
-                 !phks_token_is_nocase(t, n, "solid")) {
+        else if (!phks__token_is_nocase(t, n, "endsolid") &&
+                 !phks__token_is_nocase(t, n, "solid")) {
             s.p = t;
             st = expect(&s, "facet");
         }
     }
     if (st == PHKS_OK && tri->count == 0)
-        return phks_fail(PHKS_ERROR_NO_TRIANGLES, "line %zu: no facets", s.line);
+        return phks__fail(PHKS_ERROR_NO_TRIANGLES, "line %zu: no facets", s.line);
     return st;
 }
 
@@ -285,33 +285,33 @@ static bool is_ascii(const char *data, size_t size)
         if (HEADER_BYTES + (uint64_t)facets * FACET_BYTES == size)
             return false;
     }
-    phks_scan s;
-    phks_scan_init(&s, data, size);
-    phks_scan_space(&s);
+    phks__scan s;
+    phks__scan_init(&s, data, size);
+    phks__scan_space(&s);
     const char *t;
-    size_t n = phks_scan_token(&s, &t);
-    return phks_token_is_nocase(t, n, "solid");
+    size_t n = phks__scan_token(&s, &t);
+    return phks__token_is_nocase(t, n, "solid");
 }
 
-phks_status phks_read_stl(const char *data, size_t size, phks_raw_mesh *raw)
+phks_status phks__read_stl(const char *data, size_t size, phks__raw_mesh *raw)
 {
     memset(raw, 0, sizeof *raw);
     welder w = {0};
-    phks_tri_list tri = {0};
+    phks__tri_list tri = {0};
     phks_status st;
     if (is_ascii(data, size))
         st = read_ascii(data, size, &w, &tri);
     else if (size < HEADER_BYTES)
-        st = phks_fail(PHKS_ERROR_TRUNCATED,
+        st = phks__fail(PHKS_ERROR_TRUNCATED,
                        "byte offset %zu: a binary STL needs an 84-byte header",
                        size);
     else
         st = read_binary((const unsigned char *)data, size, &w, &tri);
-    phks_free(w.table);
+    phks__free(w.table);
     w.table = NULL;
     if (st != PHKS_OK) {
         welder_release(&w);
-        phks_free(tri.v);
+        phks__free(tri.v);
         return st;
     }
     raw->xyz = w.xyz;

@@ -24,7 +24,7 @@
 /* Beyond 10^±100000 every double is 0 or infinite. */
 #define MAX_EXPONENT 100000
 
-void phks_scan_init(phks_scan *s, const char *data, size_t size)
+void phks__scan_init(phks__scan *s, const char *data, size_t size)
 {
     /* Windows editors start UTF-8 files with a byte order mark, which
      * would otherwise hide the first keyword ("v", "OFF"). */
@@ -40,7 +40,7 @@ void phks_scan_init(phks_scan *s, const char *data, size_t size)
 }
 
 /* At a backslash: past it and the line break it escapes, if it does. */
-static bool skip_continuation(phks_scan *s)
+static bool skip_continuation(phks__scan *s)
 {
     const char *q = s->p + 1;
     while (q < s->end && *q == '\r')
@@ -55,11 +55,11 @@ static bool skip_continuation(phks_scan *s)
     return true;
 }
 
-void phks_scan_blanks(phks_scan *s)
+void phks__scan_blanks(phks__scan *s)
 {
     while (s->p < s->end) {
         char c = *s->p;
-        if (phks_scan_is_blank(c))
+        if (phks__scan_is_blank(c))
             s->p++;
         else if (c == '\\' && s->continuation) {
             if (!skip_continuation(s))
@@ -69,7 +69,7 @@ void phks_scan_blanks(phks_scan *s)
     }
 }
 
-void phks_scan_next_line(phks_scan *s)
+void phks__scan_next_line(phks__scan *s)
 {
     for (;;) {
         const char *start = s->p;
@@ -88,7 +88,7 @@ void phks_scan_next_line(phks_scan *s)
     }
 }
 
-void phks_scan_space(phks_scan *s)
+void phks__scan_space(phks__scan *s)
 {
     while (s->p < s->end) {
         char c = *s->p;
@@ -96,8 +96,8 @@ void phks_scan_space(phks_scan *s)
             s->p++;
             s->line++;
         } else if (s->comment && c == s->comment)
-            phks_scan_next_line(s);
-        else if (phks_scan_is_blank(c))
+            phks__scan_next_line(s);
+        else if (phks__scan_is_blank(c))
             s->p++;
         else if (c == '\\' && s->continuation) {
             if (!skip_continuation(s))
@@ -107,22 +107,22 @@ void phks_scan_space(phks_scan *s)
     }
 }
 
-bool phks_scan_eol(phks_scan *s)
+bool phks__scan_eol(phks__scan *s)
 {
-    phks_scan_blanks(s);
+    phks__scan_blanks(s);
     return s->p == s->end || *s->p == '\n' ||
            (s->comment && *s->p == s->comment);
 }
 
-static bool ends_token(const phks_scan *s, const char *q)
+static bool ends_token(const phks__scan *s, const char *q)
 {
-    return q == s->end || phks_scan_is_blank(*q) || *q == '\n' ||
+    return q == s->end || phks__scan_is_blank(*q) || *q == '\n' ||
            (s->comment && *q == s->comment);
 }
 
-size_t phks_scan_token(phks_scan *s, const char **token)
+size_t phks__scan_token(phks__scan *s, const char **token)
 {
-    phks_scan_blanks(s);
+    phks__scan_blanks(s);
     const char *start = s->p;
     while (!ends_token(s, s->p))
         s->p++;
@@ -130,7 +130,7 @@ size_t phks_scan_token(phks_scan *s, const char **token)
     return (size_t)(s->p - start);
 }
 
-bool phks_token_is(const char *token, size_t len, const char *word)
+bool phks__token_is(const char *token, size_t len, const char *word)
 {
     return strlen(word) == len && memcmp(token, word, len) == 0;
 }
@@ -140,7 +140,7 @@ static char lower(char c)
     return c >= 'A' && c <= 'Z' ? (char)(c - 'A' + 'a') : c;
 }
 
-bool phks_token_is_nocase(const char *token, size_t len, const char *word)
+bool phks__token_is_nocase(const char *token, size_t len, const char *word)
 {
     if (strlen(word) != len)
         return false;
@@ -173,7 +173,7 @@ static bool starts_with(const char *p, const char *end, const char *word)
 }
 
 /* "inf", "infinity", "nan", "nan(...)" after the sign. */
-static phks_scan_result parse_special(const char *p, const char *end,
+static phks__scan_result parse_special(const char *p, const char *end,
                                       const char **stop)
 {
     if (starts_with(p, end, "infinity"))
@@ -190,9 +190,9 @@ static phks_scan_result parse_special(const char *p, const char *end,
                 p = q + 1;
         }
     } else
-        return PHKS_SCAN_BAD;
+        return PHKS__SCAN_BAD;
     *stop = p;
-    return PHKS_SCAN_NON_FINITE;
+    return PHKS__SCAN_NON_FINITE;
 }
 
 static const double exact_powers[23] = {
@@ -235,7 +235,7 @@ static double parse_slow(const char *p, const char *q, long exponent)
     return strtod(buf, NULL);
 }
 
-phks_scan_result phks_parse_double(const char *p, const char *end,
+phks__scan_result phks__parse_double(const char *p, const char *end,
                                    double *out, const char **stop)
 {
     const char *q = p;
@@ -268,7 +268,7 @@ phks_scan_result phks_parse_double(const char *p, const char *end,
         exponent -= fraction;
     }
     if (!any)
-        return PHKS_SCAN_BAD;
+        return PHKS__SCAN_BAD;
     /* MSVC prints infinities and NaNs as 1.#INF, -1.#IND, 1.#QNAN. */
     if (q < end && *q == '#' && q[-1] == '.' &&
         (starts_with(q + 1, end, "inf") || starts_with(q + 1, end, "ind") ||
@@ -276,7 +276,7 @@ phks_scan_result phks_parse_double(const char *p, const char *end,
         for (q++; q < end && is_alpha(*q);)
             q++;
         *stop = q;
-        return PHKS_SCAN_NON_FINITE;
+        return PHKS__SCAN_NON_FINITE;
     }
     const char *mantissa_end = q;
 
@@ -298,7 +298,7 @@ phks_scan_result phks_parse_double(const char *p, const char *end,
 
     if (significant == 0) {
         *out = negative ? -0.0 : 0.0;
-        return PHKS_SCAN_OK;
+        return PHKS__SCAN_OK;
     }
     long total = exponent + e10;
     double v;
@@ -310,12 +310,12 @@ phks_scan_result phks_parse_double(const char *p, const char *end,
         v = parse_slow(digits, mantissa_end, e10);
     v = negative ? -v : v;
     if (!isfinite(v))
-        return PHKS_SCAN_NON_FINITE;
+        return PHKS__SCAN_NON_FINITE;
     *out = v;
-    return PHKS_SCAN_OK;
+    return PHKS__SCAN_OK;
 }
 
-phks_scan_result phks_parse_int(const char *p, const char *end, int64_t *out,
+phks__scan_result phks__parse_int(const char *p, const char *end, int64_t *out,
                                 const char **stop)
 {
     const char *q = p;
@@ -323,7 +323,7 @@ phks_scan_result phks_parse_int(const char *p, const char *end, int64_t *out,
     if (q < end && (*q == '+' || *q == '-'))
         negative = *q++ == '-';
     if (q >= end || !is_digit(*q))
-        return PHKS_SCAN_BAD;
+        return PHKS__SCAN_BAD;
     uint64_t v = 0;
     bool overflow = false;
     for (; q < end && is_digit(*q); q++) {
@@ -334,58 +334,58 @@ phks_scan_result phks_parse_int(const char *p, const char *end, int64_t *out,
     }
     *stop = q;
     if (overflow || v > (uint64_t)INT64_MAX)
-        return PHKS_SCAN_RANGE;
+        return PHKS__SCAN_RANGE;
     *out = negative ? -(int64_t)v : (int64_t)v;
-    return PHKS_SCAN_OK;
+    return PHKS__SCAN_OK;
 }
 
 /* Common front of the two number readers. */
-static phks_scan_result scan_start(phks_scan *s)
+static phks__scan_result scan_start(phks__scan *s)
 {
-    phks_scan_blanks(s);
+    phks__scan_blanks(s);
     if (s->p == s->end)
-        return PHKS_SCAN_EOF;
+        return PHKS__SCAN_EOF;
     if (*s->p == '\n' || (s->comment && *s->p == s->comment))
-        return PHKS_SCAN_EOL;
-    return PHKS_SCAN_OK;
+        return PHKS__SCAN_EOL;
+    return PHKS__SCAN_OK;
 }
 
 /* On success or a well-formed non-finite number, the number must be the
  * whole token. The scanner moves only on success, so a failure's message
  * can quote the token. */
-static phks_scan_result scan_finish(phks_scan *s, phks_scan_result r,
+static phks__scan_result scan_finish(phks__scan *s, phks__scan_result r,
                                     const char *stop)
 {
-    if ((r == PHKS_SCAN_OK || r == PHKS_SCAN_NON_FINITE ||
-         r == PHKS_SCAN_RANGE) &&
+    if ((r == PHKS__SCAN_OK || r == PHKS__SCAN_NON_FINITE ||
+         r == PHKS__SCAN_RANGE) &&
         !ends_token(s, stop))
-        return PHKS_SCAN_BAD;
-    if (r == PHKS_SCAN_OK)
+        return PHKS__SCAN_BAD;
+    if (r == PHKS__SCAN_OK)
         s->p = stop;
     return r;
 }
 
-phks_scan_result phks_scan_double(phks_scan *s, double *out)
+phks__scan_result phks__scan_double(phks__scan *s, double *out)
 {
-    phks_scan_result r = scan_start(s);
-    if (r != PHKS_SCAN_OK)
+    phks__scan_result r = scan_start(s);
+    if (r != PHKS__SCAN_OK)
         return r;
     const char *stop = s->p;
-    r = phks_parse_double(s->p, s->end, out, &stop);
+    r = phks__parse_double(s->p, s->end, out, &stop);
     return scan_finish(s, r, stop);
 }
 
-phks_scan_result phks_scan_int(phks_scan *s, int64_t *out)
+phks__scan_result phks__scan_int(phks__scan *s, int64_t *out)
 {
-    phks_scan_result r = scan_start(s);
-    if (r != PHKS_SCAN_OK)
+    phks__scan_result r = scan_start(s);
+    if (r != PHKS__SCAN_OK)
         return r;
     const char *stop = s->p;
-    r = phks_parse_int(s->p, s->end, out, &stop);
+    r = phks__parse_int(s->p, s->end, out, &stop);
     return scan_finish(s, r, stop);
 }
 
-void phks_token_quote(const char *token, size_t len, char *out, size_t size)
+void phks__token_quote(const char *token, size_t len, char *out, size_t size)
 {
     size_t limit = size > 4 ? size - 4 : 0, n = 0;
     for (; n < len && n < limit; n++) {
@@ -400,7 +400,7 @@ void phks_token_quote(const char *token, size_t len, char *out, size_t size)
         out[n < size ? n : size - 1] = '\0';
 }
 
-phks_status phks_scan_fail(const phks_scan *s, phks_scan_result r,
+phks_status phks__scan_fail(const phks__scan *s, phks__scan_result r,
                            const char *what, ...)
 {
     char subject[160], token[40];
@@ -412,43 +412,43 @@ phks_status phks_scan_fail(const phks_scan *s, phks_scan_result r,
     const char *q = s->p;
     while (q < s->end && !ends_token(s, q))
         q++;
-    phks_token_quote(s->p, (size_t)(q - s->p), token, sizeof token);
+    phks__token_quote(s->p, (size_t)(q - s->p), token, sizeof token);
 
     switch (r) {
-    case PHKS_SCAN_EOF:
-        return phks_fail(PHKS_ERROR_TRUNCATED,
+    case PHKS__SCAN_EOF:
+        return phks__fail(PHKS_ERROR_TRUNCATED,
                          "line %zu: %s: the data ends early", s->line, subject);
-    case PHKS_SCAN_EOL:
-        return phks_fail(PHKS_ERROR_PARSE, "line %zu: %s: missing", s->line,
+    case PHKS__SCAN_EOL:
+        return phks__fail(PHKS_ERROR_PARSE, "line %zu: %s: missing", s->line,
                          subject);
-    case PHKS_SCAN_NON_FINITE:
-        return phks_fail(PHKS_ERROR_NON_FINITE, "line %zu: %s: '%s' is not finite",
+    case PHKS__SCAN_NON_FINITE:
+        return phks__fail(PHKS_ERROR_NON_FINITE, "line %zu: %s: '%s' is not finite",
                          s->line, subject, token);
-    case PHKS_SCAN_RANGE:
-        return phks_fail(PHKS_ERROR_PARSE, "line %zu: %s: '%s' is out of range",
+    case PHKS__SCAN_RANGE:
+        return phks__fail(PHKS_ERROR_PARSE, "line %zu: %s: '%s' is out of range",
                          s->line, subject, token);
-    case PHKS_SCAN_OK:
-    case PHKS_SCAN_BAD:
+    case PHKS__SCAN_OK:
+    case PHKS__SCAN_BAD:
         break;
     }
-    return phks_fail(PHKS_ERROR_PARSE, "line %zu: %s: expected a number, found '%s'",
+    return phks__fail(PHKS_ERROR_PARSE, "line %zu: %s: expected a number, found '%s'",
                      s->line, subject, token);
 }
 
-phks_status phks_tri_list_reserve(phks_tri_list *t, size_t more)
+phks_status phks__tri_list_reserve(phks__tri_list *t, size_t more)
 {
-    if (more > PHKS_MAX_COUNT - t->count)
-        return phks_fail(PHKS_ERROR_TOO_LARGE, "more than %llu triangles",
-                         (unsigned long long)PHKS_MAX_COUNT);
+    if (more > PHKS__MAX_COUNT - t->count)
+        return phks__fail(PHKS_ERROR_TOO_LARGE, "more than %llu triangles",
+                         (unsigned long long)PHKS__MAX_COUNT);
     size_t need = t->count + more;
     if (need <= t->capacity)
         return PHKS_OK;
     size_t cap = t->capacity < 64 ? 64 : t->capacity;
     while (cap < need)
         cap = cap > SIZE_MAX / 2 ? need : 2 * cap;
-    uint32_t *v = phks_realloc_array(t->v, cap, 3 * sizeof *v);
+    uint32_t *v = phks__realloc_array(t->v, cap, 3 * sizeof *v);
     if (!v)
-        return phks_fail_oom("triangles");
+        return phks__fail_oom("triangles");
     t->v = v;
     t->capacity = cap;
     return PHKS_OK;

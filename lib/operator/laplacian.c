@@ -26,7 +26,7 @@
 #define ROW_BATCHES 16
 
 typedef struct {
-    const phks_grid *grid;
+    const phks__grid *grid;
     const double *xyz;
     double scale;
     double radius2;   /* squared cut-off radius */
@@ -58,7 +58,7 @@ static void distances_generic(const build_ctx *b, const double p[3], size_t lo,
     }
 }
 
-#if PHKS_HAVE_AVX2
+#if PHKS__HAVE_AVX2
 __attribute__((target("avx2"))) static void distances_avx2(const build_ctx *b,
                                                             const double p[3],
                                                             size_t lo, size_t hi,
@@ -86,7 +86,7 @@ static void kernel_generic(const double *x, double scale, double *y, size_t coun
         y[i] = exp(-x[i] * scale);
 }
 
-#if PHKS_HAVE_AVX2
+#if PHKS__HAVE_AVX2
 /* exp(t) = 2^k exp(r), k = round(t / ln 2), r = t - k ln 2 in two parts
  * (Cody-Waite), |r| <= ln 2 / 2, exp(r) by its Taylor polynomial of degree
  * 13 (truncation below 1e-17 relative), Horner with fused multiply-adds:
@@ -127,7 +127,7 @@ __attribute__((target("avx2,fma"))) static void kernel_avx2(const double *x,
 
 static void kernel(const build_ctx *b, const double *x, double *y, size_t count)
 {
-#if PHKS_HAVE_AVX2
+#if PHKS__HAVE_AVX2
     if (b->avx2) {
         kernel_avx2(x, b->inv4h, y, count);
         return;
@@ -139,7 +139,7 @@ static void kernel(const build_ctx *b, const double *x, double *y, size_t count)
 static void distances(const build_ctx *b, const double p[3], size_t lo,
                       size_t hi, double *d2)
 {
-#if PHKS_HAVE_AVX2
+#if PHKS__HAVE_AVX2
     if (b->avx2) {
         distances_avx2(b, p, lo, hi, d2);
         return;
@@ -155,14 +155,14 @@ static void distances(const build_ctx *b, const double p[3], size_t lo,
  * distance 0, within any radius the options allow. */
 static void scan_row(const build_ctx *b, size_t w)
 {
-    const phks_grid *g = b->grid;
+    const phks__grid *g = b->grid;
     const double r2 = b->radius2;
     double p[3];
     size_t c[3], range[9][2];
     for (int d = 0; d < 3; d++)
         p[d] = b->xyz[3 * w + d] * b->scale;
-    phks_grid_cell(g, p, c);
-    size_t runs = phks_grid_neighbourhood(g, c, range);
+    phks__grid_cell(g, p, c);
+    size_t runs = phks__grid_neighbourhood(g, c, range);
     size_t count = 0, out = b->fill ? b->row_start[w] : 0;
     double density = 0;
     for (size_t r = 0; r < runs; r++) {
@@ -208,7 +208,7 @@ static void scan_rows(void *ctx, size_t begin, size_t end)
 /* Turns the stored A_p W(w,p) into entries of B (see the top comment),
  * rows [begin, end); each row's Gershgorin bound goes to row_bound. */
 typedef struct {
-    phks_operator_matrix *op;
+    phks__operator_matrix *op;
     const double *area, *gain;
     double c;
     double *row_bound;
@@ -217,7 +217,7 @@ typedef struct {
 static void finish_rows(void *ctx, size_t begin, size_t end)
 {
     const finish_ctx *f = ctx;
-    phks_operator_matrix *op = f->op;
+    phks__operator_matrix *op = f->op;
     const double *area = f->area, *gain = f->gain;
     const double c = f->c;
     for (size_t w = begin; w < end; w++) {
@@ -270,13 +270,13 @@ static int morton_cmp(const void *a, const void *b)
 /* op->order: the points sorted by Morton key (ties by index), so that
  * points close in the order are close in space. */
 static phks_status morton_order(const double *xyz, size_t n,
-                                phks_operator_matrix *op)
+                                phks__operator_matrix *op)
 {
-    morton_item *items = phks_malloc_array(n, sizeof *items);
-    op->order = phks_malloc_array(n, sizeof *op->order);
+    morton_item *items = phks__malloc_array(n, sizeof *items);
+    op->order = phks__malloc_array(n, sizeof *op->order);
     if (!items || !op->order) {
-        phks_free(items);
-        return phks_fail_oom("operator");
+        phks__free(items);
+        return phks__fail_oom("operator");
     }
     double lo[3] = {INFINITY, INFINITY, INFINITY}, extent = 0;
     for (size_t i = 0; i < n; i++)
@@ -297,34 +297,34 @@ static phks_status morton_order(const double *xyz, size_t n,
     qsort(items, n, sizeof *items, morton_cmp);
     for (size_t i = 0; i < n; i++)
         op->order[i] = items[i].point;
-    phks_free(items);
+    phks__free(items);
     return PHKS_OK;
 }
 
-phks_status phks_point_operator_build(const double *xyz, size_t n,
+phks_status phks__point_operator_build(const double *xyz, size_t n,
                                       double scale, const double *area,
                                       const double *gain,
                                       const phks_options *opt, double done,
-                                      double span, phks_operator_matrix *op)
+                                      double span, phks__operator_matrix *op)
 {
     memset(op, 0, sizeof *op);
     double h = opt->tau, radius = opt->cutoff * sqrt(4 * h);
-    double *density = phks_malloc_array(n, sizeof *density), *sorted = NULL;
-    phks_grid grid = {0};
+    double *density = phks__malloc_array(n, sizeof *density), *sorted = NULL;
+    phks__grid grid = {0};
     phks_status st = PHKS_OK;
     op->n = n;
-    op->row_start = phks_calloc(n + 1, sizeof *op->row_start);
-    op->mass = phks_malloc_array(n, sizeof *op->mass);
+    op->row_start = phks__calloc(n + 1, sizeof *op->row_start);
+    op->mass = phks__malloc_array(n, sizeof *op->mass);
     if (!density || !op->row_start || !op->mass) {
-        st = phks_fail_oom("operator");
+        st = phks__fail_oom("operator");
         goto done;
     }
-    st = phks_grid_build(xyz, n, scale, radius, &grid);
+    st = phks__grid_build(xyz, n, scale, radius, &grid);
     if (st != PHKS_OK)
         goto done;
-    sorted = phks_malloc_array(n, 4 * sizeof *sorted);
+    sorted = phks__malloc_array(n, 4 * sizeof *sorted);
     if (!sorted) {
-        st = phks_fail_oom("operator");
+        st = phks__fail_oom("operator");
         goto done;
     }
     for (size_t i = 0; i < n; i++) {
@@ -338,85 +338,85 @@ phks_status phks_point_operator_build(const double *xyz, size_t n,
     build_ctx b = {&grid, xyz, scale, radius * radius, 1 / (4 * h),
                    sorted, sorted + n, sorted + 2 * n, sorted + 3 * n,
                    op->row_start, NULL, NULL, density, false,
-                   phks_cpu_avx2()};
-    unsigned threads = phks_thread_count(opt);
-    st = phks_run_batched(n, threads, scan_rows, &b, opt, PHKS_STAGE_OPERATOR,
+                   phks__cpu_avx2()};
+    unsigned threads = phks__thread_count(opt);
+    st = phks__run_batched(n, threads, scan_rows, &b, opt, PHKS_STAGE_OPERATOR,
                           done, 0.3 * span, ROW_BATCHES);
     if (st != PHKS_OK)
         goto done;
     for (size_t w = 0; w < n; w++)
         op->row_start[w + 1] += op->row_start[w];
     size_t nnz = op->row_start[n];
-    op->col = phks_malloc_array(nnz, sizeof *op->col);
-    op->val = phks_malloc_array(nnz, sizeof *op->val);
+    op->col = phks__malloc_array(nnz, sizeof *op->col);
+    op->val = phks__malloc_array(nnz, sizeof *op->val);
     if (!op->col || !op->val) {
-        st = phks_fail_oom("operator matrix");
+        st = phks__fail_oom("operator matrix");
         goto done;
     }
     b.col = op->col;
     b.val = op->val;
     b.fill = true;
-    st = phks_run_batched(n, threads, scan_rows, &b, opt, PHKS_STAGE_OPERATOR,
+    st = phks__run_batched(n, threads, scan_rows, &b, opt, PHKS_STAGE_OPERATOR,
                           done + 0.3 * span, 0.7 * span, ROW_BATCHES);
     if (st != PHKS_OK)
         goto done;
 
     for (size_t w = 0; w < n; w++)
         op->mass[w] = opt->operator_kind == PHKS_OPERATOR_RANDOM_WALK
-                          ? area[w] * density[w] / (4 * PHKS_PI * h)
+                          ? area[w] * density[w] / (4 * PHKS__PI * h)
                           : area[w];
     /* the row bounds go where the sorted positions were */
-    finish_ctx f = {op, area, gain, 1 / (4 * PHKS_PI * h * h), sorted};
-    phks_parallel_for(n, threads, finish_rows, &f);
+    finish_ctx f = {op, area, gain, 1 / (4 * PHKS__PI * h * h), sorted};
+    phks__parallel_for(n, threads, finish_rows, &f);
     op->norm_bound = 0;
     for (size_t w = 0; w < n; w++)
         op->norm_bound = fmax(op->norm_bound, sorted[w]);
     st = morton_order(xyz, n, op);
     if (st == PHKS_OK)
-        st = phks_progress(opt, PHKS_STAGE_OPERATOR, done + span);
+        st = phks__progress(opt, PHKS_STAGE_OPERATOR, done + span);
 done:
-    phks_grid_release(&grid);
-    phks_free(density);
-    phks_free(sorted);
+    phks__grid_release(&grid);
+    phks__free(density);
+    phks__free(sorted);
     if (st != PHKS_OK)
-        phks_operator_release(op);
+        phks__operator_release(op);
     return st;
 }
 
-phks_status phks_operator_build(const phks_mesh *mesh, const phks_options *opt,
-                                phks_operator_matrix *op)
+phks_status phks__operator_build(const phks_mesh *mesh, const phks_options *opt,
+                                phks__operator_matrix *op)
 {
     memset(op, 0, sizeof *op);
     size_t n = mesh->vertex_count;
     double scale;
-    phks_status st = phks_unit_box_scale_progress(
+    phks_status st = phks__unit_box_scale_progress(
         mesh, (phks_box)opt->box, opt, PHKS_STAGE_OPERATOR, 0, 0, &scale);
     if (st != PHKS_OK)
         return st;
-    double *area = phks_malloc_array(n, sizeof *area);
+    double *area = phks__malloc_array(n, sizeof *area);
     if (!area)
-        return phks_fail_oom("operator");
-    st = phks_vertex_areas_progress(mesh, scale, opt, PHKS_STAGE_OPERATOR, 0,
+        return phks__fail_oom("operator");
+    st = phks__vertex_areas_progress(mesh, scale, opt, PHKS_STAGE_OPERATOR, 0,
                                     0, area);
     if (st == PHKS_OK)
-        st = phks_point_operator_build(mesh->xyz, n, scale, area, NULL, opt, 0,
+        st = phks__point_operator_build(mesh->xyz, n, scale, area, NULL, opt, 0,
                                        1, op);
-    phks_free(area);
+    phks__free(area);
     return st;
 }
 
-void phks_operator_release(phks_operator_matrix *op)
+void phks__operator_release(phks__operator_matrix *op)
 {
-    phks_free(op->row_start);
-    phks_free(op->col);
-    phks_free(op->val);
-    phks_free(op->mass);
-    phks_free(op->order);
+    phks__free(op->row_start);
+    phks__free(op->col);
+    phks__free(op->val);
+    phks__free(op->mass);
+    phks__free(op->order);
     memset(op, 0, sizeof *op);
 }
 
 typedef struct {
-    const phks_operator_matrix *op;
+    const phks__operator_matrix *op;
     const double *x;
     double *y;
     size_t k;
@@ -439,9 +439,9 @@ static void apply_rows(void *ctx, size_t begin, size_t end)
     }
 }
 
-void phks_operator_apply(const phks_operator_matrix *op, const double *x,
+void phks__operator_apply(const phks__operator_matrix *op, const double *x,
                          double *y, size_t k, unsigned threads)
 {
     apply_ctx a = {op, x, y, k};
-    phks_parallel_for(op->n, threads, apply_rows, &a);
+    phks__parallel_for(op->n, threads, apply_rows, &a);
 }

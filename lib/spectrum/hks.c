@@ -8,10 +8,10 @@
  */
 #include "spectrum/simp.h"
 
-double phks_hks_at(const phks_spectrum *spec, double t, size_t v)
+double phks__hks_at(const phks_spectrum *spec, double t, size_t v)
 {
     if (spec->ext)
-        return phks_extend_hks_at(spec, t, v);
+        return phks__extend_hks_at(spec, t, v);
     double sum = 0;
     for (size_t i = 0; i < spec->count; i++) {
         double phi = spec->vectors[i * spec->n + v];
@@ -20,12 +20,12 @@ double phks_hks_at(const phks_spectrum *spec, double t, size_t v)
     return sum;
 }
 
-phks_status phks_hks_all(const phks_spectrum *spec, double t,
+phks_status phks__hks_all(const phks_spectrum *spec, double t,
                          const phks_options *opt, double *out)
 {
     if (spec->ext)
-        return phks_extend_hks(spec, t, opt,
-                               phks_thread_count(opt ? opt : &spec->options),
+        return phks__extend_hks(spec, t, opt,
+                               phks__thread_count(opt ? opt : &spec->options),
                                out);
     size_t n = spec->n;
     for (size_t v = 0; v < n; v++)
@@ -43,10 +43,10 @@ phks_status phks_hks_all(const phks_spectrum *spec, double t,
 phks_status phks_spectrum_hks(const phks_spectrum *spec, double t, double *out)
 {
     if (!spec || !out)
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "phks_spectrum_hks: NULL argument");
     if (!(t >= 0) || !isfinite(t))
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "phks_spectrum_hks: time %g is not a finite t >= 0", t);
-    return phks_hks_all(spec, t, NULL, out);
+    return phks__hks_all(spec, t, NULL, out);
 }

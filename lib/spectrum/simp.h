@@ -23,10 +23,10 @@
 #include <string.h>
 
 /* True when a mesh of n vertices goes through HKS-simp under opt. */
-bool phks_simplify_applies(const phks_options *opt, size_t n);
+bool phks__simplify_applies(const phks_options *opt, size_t n);
 
 /* ---- samples (simplify.c) */
-typedef struct phks_samples {
+typedef struct phks__samples {
     size_t count;
     uint32_t *vertex;    /* count mesh vertices, ascending                 */
     double *area;        /* count: the area each sample stands for (unit-
@@ -36,28 +36,28 @@ typedef struct phks_samples {
     double *gain;        /* count: the kernel gain g_p of each sample (the
                             operator's K_pq is multiplied by
                             sqrt(g_p g_q))                                  */
-} phks_samples;
+} phks__samples;
 
 /* Chooses about opt->simplify_target samples of mesh (positions scaled by
- * scale, vertex_area as phks_vertex_areas gives). Progress is reported in
+ * scale, vertex_area as phks__vertex_areas gives). Progress is reported in
  * PHKS_STAGE_OPERATOR from `done` to done + span. */
-phks_status phks_simplify(const phks_mesh *mesh, double scale,
+phks_status phks__simplify(const phks_mesh *mesh, double scale,
                           const double *vertex_area, const phks_options *opt,
-                          double done, double span, phks_samples *out);
-void phks_samples_release(phks_samples *samples);
+                          double done, double span, phks__samples *out);
+void phks__samples_release(phks__samples *samples);
 
 /* The short-time heat diagonal of appendix B on a weighted point set: for
  * point i, (H^2)_ii / A_i with H = I - tau D^-1 L the one-step heat
  * operator of the points (xyz, 3 per point, unit-box units; area A). Kept
  * separate so tests can check it against a dense H. Points within radius
  * interact. */
-phks_status phks_heat_diagonal(const double *xyz, const double *area,
+phks_status phks__heat_diagonal(const double *xyz, const double *area,
                                size_t n, double h, double radius,
                                const phks_options *opt, double done,
                                double span, double *out);
 
 /* ---- extension to every vertex (extend.c) */
-struct phks_extension {
+struct phks__extension {
     size_t m;             /* samples                                        */
     uint32_t *vertex;     /* m: mesh vertex of each sample                  */
     double *area;         /* m: gathered areas A_p, the Nystrom weights     */
@@ -67,7 +67,7 @@ struct phks_extension {
     double *sample_xyz;   /* 3m unit-box positions                          */
     double *vertex_xyz;   /* 3n unit-box positions of the mesh's vertices   */
     double *rows;         /* m x count, eigenvectors sample-major           */
-    phks_grid grid;       /* over sample_xyz, cells at least `radius`       */
+    phks__grid grid;       /* over sample_xyz, cells at least `radius`       */
     double h, radius;     /* kernel parameter and cut-off radius            */
     double total_area;    /* of the mesh, unit-box units                    */
     bool random_walk;     /* operator kind (changes the denominator)        */
@@ -77,16 +77,16 @@ struct phks_extension {
  * of mass (m entries); keeps copies of the positions and a sample-major
  * copy of spec->vectors (spec->count and the m x count vectors set).
  * On failure everything handed over is freed. */
-phks_status phks_extension_create(phks_spectrum *spec, const phks_mesh *mesh,
-                                  double scale, phks_samples *samples,
+phks_status phks__extension_create(phks_spectrum *spec, const phks_mesh *mesh,
+                                  double scale, phks__samples *samples,
                                   double *mass);
-void phks_extension_free(struct phks_extension *ext);
+void phks__extension_free(struct phks__extension *ext);
 
 /* HKS_t at mesh vertex v through the extension, in double precision. */
-double phks_extend_hks_at(const phks_spectrum *spec, double t, size_t v);
+double phks__extend_hks_at(const phks_spectrum *spec, double t, size_t v);
 /* HKS_t at every mesh vertex into out (n values), on `threads` workers,
  * reporting PHKS_STAGE_HKS progress through opt when opt is not NULL. */
-phks_status phks_extend_hks(const phks_spectrum *spec, double t,
+phks_status phks__extend_hks(const phks_spectrum *spec, double t,
                             const phks_options *opt, unsigned threads,
                             double *out);
 
@@ -95,7 +95,7 @@ phks_status phks_extend_hks(const phks_spectrum *spec, double t,
  * from p to point j (x[j], y[j], z[j]) is below r2, else 0; d2 receives the
  * d2_j. Vectorised (AVX2 where the CPU has it, the same bits
  * either way). */
-void phks_kernel_row(const double *x, const double *y, const double *z,
+void phks__kernel_row(const double *x, const double *y, const double *z,
                      size_t count, const double p[3], double r2, double inv4h,
                      double *e, double *d2);
 
@@ -104,7 +104,7 @@ void phks_kernel_row(const double *x, const double *y, const double *z,
  * that loops over arrays of x vectorise. For the kernel weights of the
  * sampling and the extension, where libm's exp would be a third of the
  * run time; the samples' operator itself uses libm. */
-static inline double phks_exp_neg(double x)
+static inline double phks__exp_neg(double x)
 {
     /* 2^y with y = -x log2(e): y = k + f, |f| <= 1/2, by adding and taking
      * away 1.5 * 2^52 (round to nearest); 2^k from the exponent bits. */

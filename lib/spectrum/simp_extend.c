@@ -28,7 +28,7 @@
  * all N'_w (and s'_w, s_w) at once. Single precision costs about 1e-6
  * relative on values whose method error is 1e-3 and above, and halves the
  * time of what is the largest part of HKS-simp on a million vertices. The
- * one-vertex path (phks_extend_hks_at, for feature vectors) is double.
+ * one-vertex path (phks__extend_hks_at, for feature vectors) is double.
  */
 #include "spectrum/simp.h"
 #include "core/simd.h"
@@ -62,29 +62,29 @@
 #define BATCH_VERTICES 8192
 #define EIGEN_BLOCK 64
 
-void phks_extension_free(struct phks_extension *ext)
+void phks__extension_free(struct phks__extension *ext)
 {
     if (!ext)
         return;
-    phks_free(ext->vertex);
-    phks_free(ext->area);
-    phks_free(ext->root_gain);
-    phks_free(ext->mass);
-    phks_free(ext->sample_xyz);
-    phks_free(ext->vertex_xyz);
-    phks_free(ext->rows);
-    phks_grid_release(&ext->grid);
-    phks_free(ext);
+    phks__free(ext->vertex);
+    phks__free(ext->area);
+    phks__free(ext->root_gain);
+    phks__free(ext->mass);
+    phks__free(ext->sample_xyz);
+    phks__free(ext->vertex_xyz);
+    phks__free(ext->rows);
+    phks__grid_release(&ext->grid);
+    phks__free(ext);
 }
 
-phks_status phks_extension_create(phks_spectrum *spec, const phks_mesh *mesh,
-                                  double scale, phks_samples *samples,
+phks_status phks__extension_create(phks_spectrum *spec, const phks_mesh *mesh,
+                                  double scale, phks__samples *samples,
                                   double *mass)
 {
-    struct phks_extension *ext = phks_calloc(1, sizeof *ext);
+    struct phks__extension *ext = phks__calloc(1, sizeof *ext);
     if (!ext) {
-        phks_free(mass);
-        return phks_fail_oom("extension");
+        phks__free(mass);
+        return phks__fail_oom("extension");
     }
     size_t m = samples->count, n = mesh->vertex_count, k = spec->count;
     ext->m = m;
@@ -98,12 +98,12 @@ phks_status phks_extension_create(phks_spectrum *spec, const phks_mesh *mesh,
     ext->h = spec->options.tau;
     ext->radius = spec->options.cutoff * sqrt(4 * ext->h);
     ext->random_walk = spec->options.operator_kind == PHKS_OPERATOR_RANDOM_WALK;
-    ext->sample_xyz = phks_malloc_array(m, 3 * sizeof *ext->sample_xyz);
-    ext->vertex_xyz = phks_malloc_array(n, 3 * sizeof *ext->vertex_xyz);
-    ext->rows = phks_malloc_array(m, k * sizeof *ext->rows);
+    ext->sample_xyz = phks__malloc_array(m, 3 * sizeof *ext->sample_xyz);
+    ext->vertex_xyz = phks__malloc_array(n, 3 * sizeof *ext->vertex_xyz);
+    ext->rows = phks__malloc_array(m, k * sizeof *ext->rows);
     phks_status st = PHKS_OK;
     if (!ext->sample_xyz || !ext->vertex_xyz || !ext->rows)
-        st = phks_fail_oom("extension");
+        st = phks__fail_oom("extension");
     if (st == PHKS_OK) {
         for (size_t i = 0; i < 3 * n; i++)
             ext->vertex_xyz[i] = mesh->xyz[i] * scale;
@@ -114,21 +114,21 @@ phks_status phks_extension_create(phks_spectrum *spec, const phks_mesh *mesh,
         for (size_t s = 0; s < m; s++)
             for (size_t i = 0; i < k; i++)
                 ext->rows[s * k + i] = spec->vectors[i * m + s];
-        st = phks_grid_build(ext->sample_xyz, m, 1, ext->radius, &ext->grid);
+        st = phks__grid_build(ext->sample_xyz, m, 1, ext->radius, &ext->grid);
         for (size_t s = 0; s < m; s++) {
             ext->total_area += ext->area[s];
             ext->root_gain[s] = sqrt(ext->root_gain[s]);
         }
     }
     if (st != PHKS_OK) {
-        phks_extension_free(ext);
+        phks__extension_free(ext);
         return st;
     }
     spec->ext = ext;
     return PHKS_OK;
 }
 
-static void cell_coords(const phks_grid *g, const double *p, size_t c[3])
+static void cell_coords(const phks__grid *g, const double *p, size_t c[3])
 {
     for (int d = 0; d < 3; d++) {
         double x = floor((p[d] - g->origin[d]) / g->cell);
@@ -142,10 +142,10 @@ static void cell_coords(const phks_grid *g, const double *p, size_t c[3])
 static void eigen_terms(const phks_spectrum *spec, double t, size_t i,
                         double *decay, double *mu)
 {
-    const struct phks_extension *ext = spec->ext;
+    const struct phks__extension *ext = spec->ext;
     *decay = exp(-t * spec->values[i]);
     *mu = ext->random_walk ? ext->h * spec->values[i]
-                           : 4 * PHKS_PI * ext->h * ext->h * spec->values[i];
+                           : 4 * PHKS__PI * ext->h * ext->h * spec->values[i];
 }
 
 /* The denominator from s_w, s'_w and the eigenvalue term mu. */
@@ -155,10 +155,10 @@ static double denominator(bool random_walk, double s, double sg, double mu)
     return den > DEN_FLOOR * sg ? den : DEN_FLOOR * sg;
 }
 
-double phks_extend_hks_at(const phks_spectrum *spec, double t, size_t v)
+double phks__extend_hks_at(const phks_spectrum *spec, double t, size_t v)
 {
-    const struct phks_extension *ext = spec->ext;
-    const phks_grid *g = &ext->grid;
+    const struct phks__extension *ext = spec->ext;
+    const phks__grid *g = &ext->grid;
     const double *p = ext->vertex_xyz + 3 * v;
     const double r2 = ext->radius * ext->radius, inv4h = 1 / (4 * ext->h);
     size_t c[3], k = spec->count;
@@ -180,7 +180,7 @@ double phks_extend_hks_at(const phks_spectrum *spec, double t, size_t v)
                         double d2 = dx * dx + dy * dy + dz * dz;
                         if (d2 >= r2)
                             continue;
-                        double w = ext->area[smp] * phks_exp_neg(d2 * inv4h);
+                        double w = ext->area[smp] * phks__exp_neg(d2 * inv4h);
                         double wg = w * ext->root_gain[smp];
                         const double *row = ext->rows + (size_t)smp * k + i0;
                         s += w;
@@ -207,7 +207,7 @@ double phks_extend_hks_at(const phks_spectrum *spec, double t, size_t v)
 
 typedef struct {
     const phks_spectrum *spec;
-    const phks_grid *cells;  /* over the mesh's vertices */
+    const phks__grid *cells;  /* over the mesh's vertices */
     const size_t *work;      /* non-empty cells */
     const float *rows;       /* m x stride, single precision: sqrt(g_p)
                                 phi_i(p), then sqrt(g_p) and 1 (and zeros
@@ -233,17 +233,17 @@ typedef struct {
 
 static void scratch_free(scratch *sc)
 {
-    phks_free(sc->cand);
-    phks_free(sc->cx);
-    phks_free(sc->cy);
-    phks_free(sc->cz);
-    phks_free(sc->ca);
-    phks_free(sc->e);
-    phks_free(sc->d2);
-    phks_free(sc->f);
-    phks_free(sc->w);
-    phks_free(sc->g);
-    phks_free(sc->term);
+    phks__free(sc->cand);
+    phks__free(sc->cx);
+    phks__free(sc->cy);
+    phks__free(sc->cz);
+    phks__free(sc->ca);
+    phks__free(sc->e);
+    phks__free(sc->d2);
+    phks__free(sc->f);
+    phks__free(sc->w);
+    phks__free(sc->g);
+    phks__free(sc->term);
 }
 
 static bool grow(scratch *sc, size_t need, size_t k, size_t stride)
@@ -253,17 +253,17 @@ static bool grow(scratch *sc, size_t need, size_t k, size_t stride)
     size_t room = need + need / 2 + 64;
     scratch fresh = {0};
     fresh.room = room;
-    fresh.cand = phks_malloc_array(room, sizeof *fresh.cand);
-    fresh.cx = phks_malloc_array(room, sizeof *fresh.cx);
-    fresh.cy = phks_malloc_array(room, sizeof *fresh.cy);
-    fresh.cz = phks_malloc_array(room, sizeof *fresh.cz);
-    fresh.ca = phks_malloc_array(room, sizeof *fresh.ca);
-    fresh.e = phks_malloc_array(room, sizeof *fresh.e);
-    fresh.d2 = phks_malloc_array(room, sizeof *fresh.d2);
-    fresh.f = phks_malloc_array(room, stride * sizeof *fresh.f);
-    fresh.w = phks_malloc_array(room, CHUNK * sizeof *fresh.w);
-    fresh.g = sc->g ? sc->g : phks_malloc_array(CHUNK, stride * sizeof *fresh.g);
-    fresh.term = sc->term ? sc->term : phks_malloc_array(k, sizeof *fresh.term);
+    fresh.cand = phks__malloc_array(room, sizeof *fresh.cand);
+    fresh.cx = phks__malloc_array(room, sizeof *fresh.cx);
+    fresh.cy = phks__malloc_array(room, sizeof *fresh.cy);
+    fresh.cz = phks__malloc_array(room, sizeof *fresh.cz);
+    fresh.ca = phks__malloc_array(room, sizeof *fresh.ca);
+    fresh.e = phks__malloc_array(room, sizeof *fresh.e);
+    fresh.d2 = phks__malloc_array(room, sizeof *fresh.d2);
+    fresh.f = phks__malloc_array(room, stride * sizeof *fresh.f);
+    fresh.w = phks__malloc_array(room, CHUNK * sizeof *fresh.w);
+    fresh.g = sc->g ? sc->g : phks__malloc_array(CHUNK, stride * sizeof *fresh.g);
+    fresh.term = sc->term ? sc->term : phks__malloc_array(k, sizeof *fresh.term);
     sc->g = NULL;
     sc->term = NULL;
     scratch_free(sc);
@@ -279,11 +279,11 @@ static bool grow(scratch *sc, size_t need, size_t k, size_t stride)
 
 /* The samples within the cut-off of the box [lo, hi]: their count, and
  * their indices in cand when they fit in room. */
-static size_t candidates_of_box(const struct phks_extension *ext,
+static size_t candidates_of_box(const struct phks__extension *ext,
                                 const double lo[3], const double hi[3],
                                 uint32_t *cand, size_t room)
 {
-    const phks_grid *g = &ext->grid;
+    const phks__grid *g = &ext->grid;
     double r = ext->radius, r2 = r * r;
     size_t a[3], b[3], count = 0;
     double elo[3], ehi[3];
@@ -321,7 +321,7 @@ static size_t candidates_of_box(const struct phks_extension *ext,
 static void weights(const scratch *sc, size_t nc, const double *p, double r2,
                     double inv4h, float *w)
 {
-    phks_kernel_row(sc->cx, sc->cy, sc->cz, nc, p, r2, inv4h, sc->e, sc->d2);
+    phks__kernel_row(sc->cx, sc->cy, sc->cz, nc, p, r2, inv4h, sc->e, sc->d2);
     for (size_t j = 0; j < nc; j++)
         w[j] = (float)(sc->ca[j] * sc->e[j]);
 }
@@ -368,7 +368,7 @@ static void product_base(const float *w, const float *f, float *g, size_t nv,
     }
 }
 
-#if PHKS_HAVE_AVX2
+#if PHKS__HAVE_AVX2
 /* Six rows by sixteen columns at a time: twelve accumulators, two loads
  * of f and six broadcasts of w per step. */
 __attribute__((target("avx2,fma"))) static void
@@ -414,8 +414,8 @@ product_avx2(const float *w, const float *f, float *g, size_t nv, size_t nc,
 static void product(const float *w, const float *f, float *g, size_t nv,
                     size_t nc, size_t stride)
 {
-#if PHKS_HAVE_AVX2
-    if (phks_cpu_avx2()) {
+#if PHKS__HAVE_AVX2
+    if (phks__cpu_avx2()) {
         product_avx2(w, f, g, nv, nc, stride);
         return;
     }
@@ -427,8 +427,8 @@ static void extend_cells(void *ctx, size_t begin, size_t end)
 {
     bulk_ctx *b = ctx;
     const phks_spectrum *spec = b->spec;
-    const struct phks_extension *ext = spec->ext;
-    const phks_grid *cells = b->cells;
+    const struct phks__extension *ext = spec->ext;
+    const phks__grid *cells = b->cells;
     const size_t k = spec->count, k1 = b->stride;
     const double r2 = ext->radius * ext->radius, inv4h = 1 / (4 * ext->h);
     scratch sc = {0};
@@ -480,21 +480,21 @@ static void extend_cells(void *ctx, size_t begin, size_t end)
     scratch_free(&sc);
 }
 
-phks_status phks_extend_hks(const phks_spectrum *spec, double t,
+phks_status phks__extend_hks(const phks_spectrum *spec, double t,
                             const phks_options *opt, unsigned threads,
                             double *out)
 {
-    const struct phks_extension *ext = spec->ext;
+    const struct phks__extension *ext = spec->ext;
     size_t n = spec->n, m = ext->m, k = spec->count;
-    phks_grid cells = {0};
+    phks__grid cells = {0};
     size_t *work = NULL;
-    double *decay = phks_malloc_array(k, sizeof *decay);
-    double *mu = phks_malloc_array(k, sizeof *mu);
+    double *decay = phks__malloc_array(k, sizeof *decay);
+    double *mu = phks__malloc_array(k, sizeof *mu);
     size_t stride = (k + 2 + LANES - 1) / LANES * LANES;
-    float *rows = phks_calloc(m, stride * sizeof *rows);
+    float *rows = phks__calloc(m, stride * sizeof *rows);
     phks_status st = PHKS_OK;
     if (!decay || !mu || !rows)
-        st = phks_fail_oom("HKS extension");
+        st = phks__fail_oom("HKS extension");
     /* Blocks: cells holding about CHUNK vertices (a surface of area S
      * occupies about 1.5 S / b^2 cells of edge b), at most CELL_FRACTION
      * of the cut-off across. The smaller the cell, the fewer samples out
@@ -504,16 +504,16 @@ phks_status phks_extend_hks(const phks_spectrum *spec, double t,
         double per = sqrt(CHUNK * ext->total_area / (1.5 * (double)n));
         if (per < cell)
             cell = per;
-        st = phks_grid_build(ext->vertex_xyz, n, 1, cell, &cells);
+        st = phks__grid_build(ext->vertex_xyz, n, 1, cell, &cells);
     }
     size_t total = 0;
     if (st == PHKS_OK) {
         size_t all = cells.dims[0] * cells.dims[1] * cells.dims[2];
         for (size_t c = 0; c < all; c++)
             total += cells.cell_start[c + 1] > cells.cell_start[c];
-        work = phks_malloc_array(total ? total : 1, sizeof *work);
+        work = phks__malloc_array(total ? total : 1, sizeof *work);
         if (!work)
-            st = phks_fail_oom("HKS extension");
+            st = phks__fail_oom("HKS extension");
         total = 0;
         for (size_t c = 0; work && c < all; c++)
             if (cells.cell_start[c + 1] > cells.cell_start[c])
@@ -531,18 +531,18 @@ phks_status phks_extend_hks(const phks_spectrum *spec, double t,
         }
         bulk_ctx b = {spec, &cells, work, rows, stride, decay, mu, out, 0};
         size_t batches = 1 + n / BATCH_VERTICES;
-        st = phks_run_batched(total, threads, extend_cells, &b, opt,
+        st = phks__run_batched(total, threads, extend_cells, &b, opt,
                               PHKS_STAGE_HKS, 0, 1,
                               batches < total ? batches : total);
         if (st == PHKS_OK && atomic_load(&b.failed))
-            st = phks_fail_oom("HKS extension");
+            st = phks__fail_oom("HKS extension");
     }
     if (st == PHKS_OK && opt)
-        st = phks_progress(opt, PHKS_STAGE_HKS, 1);
-    phks_grid_release(&cells);
-    phks_free(work);
-    phks_free(decay);
-    phks_free(mu);
-    phks_free(rows);
+        st = phks__progress(opt, PHKS_STAGE_HKS, 1);
+    phks__grid_release(&cells);
+    phks__free(work);
+    phks__free(decay);
+    phks__free(mu);
+    phks__free(rows);
     return st;
 }

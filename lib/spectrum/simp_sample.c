@@ -91,18 +91,18 @@
  * noticed) well within a second on a million vertices. */
 #define BATCHES 32
 
-bool phks_simplify_applies(const phks_options *opt, size_t n)
+bool phks__simplify_applies(const phks_options *opt, size_t n)
 {
     return opt->simplify_above > 0 && n > opt->simplify_above &&
            n > opt->simplify_target;
 }
 
-void phks_samples_release(phks_samples *s)
+void phks__samples_release(phks__samples *s)
 {
-    phks_free(s->vertex);
-    phks_free(s->area);
-    phks_free(s->of_vertex);
-    phks_free(s->gain);
+    phks__free(s->vertex);
+    phks__free(s->area);
+    phks__free(s->of_vertex);
+    phks__free(s->gain);
     memset(s, 0, sizeof *s);
 }
 
@@ -110,7 +110,7 @@ void phks_samples_release(phks_samples *s)
  * Grid helpers (cells as grid.c buckets them)
  * --------------------------------------------------------------------- */
 
-static size_t cell_index(const phks_grid *g, size_t x, size_t y, size_t z)
+static size_t cell_index(const phks__grid *g, size_t x, size_t y, size_t z)
 {
     return (z * g->dims[1] + y) * g->dims[0] + x;
 }
@@ -134,7 +134,7 @@ static double dist2(const double *a, const double *b)
         double dx = x[j] - px, dy = y[j] - py, dz = z[j] - pz;                \
         double dd = dx * dx + dy * dy + dz * dz;                              \
         double inside = dd < r2;                                              \
-        e[j] = phks_exp_neg((dd < r2 ? dd : r2) * inv4h) * inside;            \
+        e[j] = phks__exp_neg((dd < r2 ? dd : r2) * inv4h) * inside;            \
         d2[j] = dd;                                                           \
     }
 
@@ -146,7 +146,7 @@ static void kernel_row_base(const double *restrict x, const double *restrict y,
     KERNEL_ROW_BODY
 }
 
-#if PHKS_HAVE_AVX2
+#if PHKS__HAVE_AVX2
 __attribute__((target("avx2,fma"))) static void
 kernel_row_avx2(const double *restrict x, const double *restrict y,
                 const double *restrict z, size_t count, double px, double py,
@@ -157,12 +157,12 @@ kernel_row_avx2(const double *restrict x, const double *restrict y,
 }
 #endif
 
-void phks_kernel_row(const double *x, const double *y, const double *z,
+void phks__kernel_row(const double *x, const double *y, const double *z,
                      size_t count, const double p[3], double r2, double inv4h,
                      double *e, double *d2)
 {
-#if PHKS_HAVE_AVX2
-    if (phks_cpu_avx2()) {
+#if PHKS__HAVE_AVX2
+    if (phks__cpu_avx2()) {
         kernel_row_avx2(x, y, z, count, p[0], p[1], p[2], r2, inv4h, e, d2);
         return;
     }
@@ -172,9 +172,9 @@ void phks_kernel_row(const double *x, const double *y, const double *z,
 
 /* A point set bucketed by a grid with cells of the kernel radius, stored
  * in grid order as separate coordinate arrays, so that the points of a row
- * of three cells are contiguous and phks_kernel_row runs over them. */
+ * of three cells are contiguous and phks__kernel_row runs over them. */
 typedef struct {
-    phks_grid grid;
+    phks__grid grid;
     size_t count;
     double *x, *y, *z;
     double r2, inv4h;
@@ -182,10 +182,10 @@ typedef struct {
 
 static void kernel_points_release(kernel_points *kp)
 {
-    phks_grid_release(&kp->grid);
-    phks_free(kp->x);
-    phks_free(kp->y);
-    phks_free(kp->z);
+    phks__grid_release(&kp->grid);
+    phks__free(kp->x);
+    phks__free(kp->y);
+    phks__free(kp->z);
     memset(kp, 0, sizeof *kp);
 }
 
@@ -197,15 +197,15 @@ static phks_status kernel_points_build(const double *xyz, size_t count,
     kp->count = count;
     kp->r2 = radius * radius;
     kp->inv4h = 1 / (4 * h);
-    phks_status st = phks_grid_build(xyz, count, 1, radius, &kp->grid);
+    phks_status st = phks__grid_build(xyz, count, 1, radius, &kp->grid);
     if (st != PHKS_OK)
         return st;
-    kp->x = phks_malloc_array(count, sizeof *kp->x);
-    kp->y = phks_malloc_array(count, sizeof *kp->y);
-    kp->z = phks_malloc_array(count, sizeof *kp->z);
+    kp->x = phks__malloc_array(count, sizeof *kp->x);
+    kp->y = phks__malloc_array(count, sizeof *kp->y);
+    kp->z = phks__malloc_array(count, sizeof *kp->z);
     if (!kp->x || !kp->y || !kp->z) {
         kernel_points_release(kp);
-        return phks_fail_oom("simplification: kernel sums");
+        return phks__fail_oom("simplification: kernel sums");
     }
     for (size_t s = 0; s < count; s++) {
         const double *p = xyz + 3 * (size_t)kp->grid.points[s];
@@ -235,14 +235,14 @@ static void kernel_sums(const kernel_points *kp, const double p[3],
 {
     double e[SUM_CHUNK], d2[SUM_CHUNK];
     size_t c[3], range[9][2];
-    phks_grid_cell(&kp->grid, p, c);
-    size_t runs = phks_grid_neighbourhood(&kp->grid, c, range);
+    phks__grid_cell(&kp->grid, p, c);
+    size_t runs = phks__grid_neighbourhood(&kp->grid, c, range);
     double s0 = 0, s2 = 0;
     for (size_t r = 0; r < runs; r++) {
         size_t a = range[r][0], b = range[r][1];
         for (size_t lo = a; lo < b; lo += SUM_CHUNK) {
             size_t len = b - lo < SUM_CHUNK ? b - lo : SUM_CHUNK;
-            phks_kernel_row(kp->x + lo, kp->y + lo, kp->z + lo, len, p,
+            phks__kernel_row(kp->x + lo, kp->y + lo, kp->z + lo, len, p,
                             kp->r2, kp->inv4h, e, d2);
             const double *cf = coef + lo;
             for (size_t j = 0; j < len; j++) {
@@ -271,9 +271,9 @@ typedef struct {
 
 static void candidates_release(candidates *c)
 {
-    phks_free(c->vertex);
-    phks_free(c->area);
-    phks_free(c->xyz);
+    phks__free(c->vertex);
+    phks__free(c->area);
+    phks__free(c->xyz);
     memset(c, 0, sizeof *c);
 }
 
@@ -285,12 +285,12 @@ typedef struct {
 /* Stable LSD radix sort by key (the low `bits` bits), 11 bits a pass. */
 static phks_status radix_sort(keyed *a, size_t n, unsigned bits)
 {
-    keyed *tmp = phks_malloc_array(n, sizeof *tmp);
-    size_t *count = phks_malloc_array(2048, sizeof *count);
+    keyed *tmp = phks__malloc_array(n, sizeof *tmp);
+    size_t *count = phks__malloc_array(2048, sizeof *count);
     if (!tmp || !count) {
-        phks_free(tmp);
-        phks_free(count);
-        return phks_fail_oom("simplification: sort");
+        phks__free(tmp);
+        phks__free(count);
+        return phks__fail_oom("simplification: sort");
     }
     keyed *src = a, *dst = tmp;
     for (unsigned shift = 0; shift < bits; shift += 11) {
@@ -311,8 +311,8 @@ static phks_status radix_sort(keyed *a, size_t n, unsigned bits)
     }
     if (src != a)
         memcpy(a, src, n * sizeof *a);
-    phks_free(tmp);
-    phks_free(count);
+    phks__free(tmp);
+    phks__free(count);
     return PHKS_OK;
 }
 
@@ -343,9 +343,9 @@ static phks_status make_candidates(const double *xyz, size_t n,
     while (bits < 64 && ((uint64_t)1 << bits) < dims[0] * dims[1] * dims[2])
         bits++;
 
-    keyed *a = phks_malloc_array(n, sizeof *a);
+    keyed *a = phks__malloc_array(n, sizeof *a);
     if (!a)
-        return phks_fail_oom("simplification: candidates");
+        return phks__fail_oom("simplification: candidates");
     for (size_t v = 0; v < n; v++) {
         uint64_t c[3];
         for (int d = 0; d < 3; d++) {
@@ -360,14 +360,14 @@ static phks_status make_candidates(const double *xyz, size_t n,
     for (size_t i = 0; st == PHKS_OK && i < n; i++)
         count += i == 0 || a[i].key != a[i - 1].key;
     if (st == PHKS_OK) {
-        out->vertex = phks_malloc_array(count, sizeof *out->vertex);
-        out->area = phks_malloc_array(count, sizeof *out->area);
-        out->xyz = phks_malloc_array(count, 3 * sizeof *out->xyz);
+        out->vertex = phks__malloc_array(count, sizeof *out->vertex);
+        out->area = phks__malloc_array(count, sizeof *out->area);
+        out->xyz = phks__malloc_array(count, 3 * sizeof *out->xyz);
         if (!out->vertex || !out->area || !out->xyz)
-            st = phks_fail_oom("simplification: candidates");
+            st = phks__fail_oom("simplification: candidates");
     }
     if (st != PHKS_OK) {
-        phks_free(a);
+        phks__free(a);
         candidates_release(out);
         return st;
     }
@@ -399,7 +399,7 @@ static phks_status make_candidates(const double *xyz, size_t n,
         memcpy(out->xyz + 3 * c, xyz + 3 * (size_t)best, 3 * sizeof(double));
         i = j;
     }
-    phks_free(a);
+    phks__free(a);
     return PHKS_OK;
 }
 
@@ -427,7 +427,7 @@ static void heat_rows(void *ctx, size_t begin, size_t end)
     }
 }
 
-phks_status phks_heat_diagonal(const double *xyz, const double *area, size_t n,
+phks_status phks__heat_diagonal(const double *xyz, const double *area, size_t n,
                                double h, double radius,
                                const phks_options *opt, double done,
                                double span, double *out)
@@ -436,18 +436,18 @@ phks_status phks_heat_diagonal(const double *xyz, const double *area, size_t n,
     phks_status st = kernel_points_build(xyz, n, h, radius, &kp);
     if (st != PHKS_OK)
         return st;
-    double *coef = phks_malloc_array(n, sizeof *coef);
-    double *density = phks_malloc_array(n, sizeof *density);
-    double *heat = phks_malloc_array(n, sizeof *heat);
+    double *coef = phks__malloc_array(n, sizeof *coef);
+    double *density = phks__malloc_array(n, sizeof *density);
+    double *heat = phks__malloc_array(n, sizeof *heat);
     if (!coef || !density || !heat) {
-        st = phks_fail_oom("simplification: heat diagonal");
+        st = phks__fail_oom("simplification: heat diagonal");
         goto done;
     }
     /* Slots in grid order: neighbouring points are visited together. */
     to_grid_order(&kp, area, coef);
     heat_ctx ctx = {&kp, xyz, coef, density, NULL};
-    unsigned threads = phks_thread_count(opt);
-    st = phks_run_batched(n, threads, heat_rows, &ctx, opt, PHKS_STAGE_OPERATOR,
+    unsigned threads = phks__thread_count(opt);
+    st = phks__run_batched(n, threads, heat_rows, &ctx, opt, PHKS_STAGE_OPERATOR,
                           done, span / 2, BATCHES);
     if (st != PHKS_OK)
         goto done;
@@ -455,7 +455,7 @@ phks_status phks_heat_diagonal(const double *xyz, const double *area, size_t n,
         coef[s] /= density[s];
     ctx.out = heat;
     ctx.density = density;
-    st = phks_run_batched(n, threads, heat_rows, &ctx, opt, PHKS_STAGE_OPERATOR,
+    st = phks__run_batched(n, threads, heat_rows, &ctx, opt, PHKS_STAGE_OPERATOR,
                           done + span / 2, span / 2, BATCHES);
     if (st != PHKS_OK)
         goto done;
@@ -463,9 +463,9 @@ phks_status phks_heat_diagonal(const double *xyz, const double *area, size_t n,
         out[kp.grid.points[s]] = heat[s];
 done:
     kernel_points_release(&kp);
-    phks_free(coef);
-    phks_free(density);
-    phks_free(heat);
+    phks__free(coef);
+    phks__free(density);
+    phks__free(heat);
     return st;
 }
 
@@ -489,13 +489,13 @@ static int by_heat(const void *pa, const void *pb)
 /* Whether some point j of the grid (positions xyz) within squared
  * distance r2 of p, in p's cell or the 26 around it (the cells are at
  * least the radius wide), satisfies pred(ctx, j). */
-static bool near_one(const phks_grid *g, const double *xyz, const double *p,
+static bool near_one(const phks__grid *g, const double *xyz, const double *p,
                      double r2, bool (*pred)(const void *, uint32_t),
                      const void *ctx)
 {
     size_t c[3], range[9][2];
-    phks_grid_cell(g, p, c);
-    size_t runs = phks_grid_neighbourhood(g, c, range);
+    phks__grid_cell(g, p, c);
+    size_t runs = phks__grid_neighbourhood(g, c, range);
     for (size_t r = 0; r < runs; r++)
         for (size_t q = range[r][0]; q < range[r][1]; q++) {
             uint32_t j = g->points[q];
@@ -530,8 +530,8 @@ static bool is_above(const void *ctx, uint32_t j)
 static phks_status pack(const candidates *c, const ranked *order, double rho,
                         unsigned char *keep, size_t *count)
 {
-    phks_grid g = {0};
-    phks_status st = phks_grid_build(c->xyz, c->count, 1, rho, &g);
+    phks__grid g = {0};
+    phks_status st = phks__grid_build(c->xyz, c->count, 1, rho, &g);
     if (st != PHKS_OK)
         return st;
     double rho2 = rho * rho;
@@ -545,7 +545,7 @@ static phks_status pack(const candidates *c, const ranked *order, double rho,
             kept++;
         }
     }
-    phks_grid_release(&g);
+    phks__grid_release(&g);
     *count = kept;
     return PHKS_OK;
 }
@@ -555,8 +555,8 @@ static phks_status pack(const candidates *c, const ranked *order, double rho,
 static phks_status mark_maxima(const candidates *c, const double *heat,
                                double radius, unsigned char *keep)
 {
-    phks_grid g = {0};
-    phks_status st = phks_grid_build(c->xyz, c->count, 1, radius, &g);
+    phks__grid g = {0};
+    phks_status st = phks__grid_build(c->xyz, c->count, 1, radius, &g);
     if (st != PHKS_OK)
         return st;
     double r2 = radius * radius;
@@ -567,7 +567,7 @@ static phks_status mark_maxima(const candidates *c, const double *heat,
         const above_ctx ctx = {c, heat, (uint32_t)i};
         keep[i] = near_one(&g, c->xyz, p, r2, is_above, &ctx) ? 1 : 2;
     }
-    phks_grid_release(&g);
+    phks__grid_release(&g);
     return PHKS_OK;
 }
 
@@ -578,12 +578,12 @@ static phks_status choose_samples(const candidates *c, const double *heat,
                                   unsigned char *keep)
 {
     double rho = *rho_io;
-    ranked *order = phks_malloc_array(c->count, sizeof *order);
-    unsigned char *trial = phks_malloc_array(c->count, sizeof *trial);
+    ranked *order = phks__malloc_array(c->count, sizeof *order);
+    unsigned char *trial = phks__malloc_array(c->count, sizeof *trial);
     if (!order || !trial) {
-        phks_free(order);
-        phks_free(trial);
-        return phks_fail_oom("simplification: samples");
+        phks__free(order);
+        phks__free(trial);
+        return phks__fail_oom("simplification: samples");
     }
     for (size_t i = 0; i < c->count; i++)
         order[i] = (ranked){heat[i], c->vertex[i], (uint32_t)i};
@@ -605,8 +605,8 @@ static phks_status choose_samples(const candidates *c, const double *heat,
             break;
         rho *= sqrt((double)count / (double)target);
     }
-    phks_free(order);
-    phks_free(trial);
+    phks__free(order);
+    phks__free(trial);
     return st;
 }
 
@@ -615,7 +615,7 @@ static phks_status choose_samples(const candidates *c, const double *heat,
  * --------------------------------------------------------------------- */
 
 typedef struct {
-    const phks_grid *grid;   /* over the samples */
+    const phks__grid *grid;   /* over the samples */
     const double *sample_xyz;
     const double *xyz;       /* mesh vertices, unit box */
     uint32_t *nearest;
@@ -624,7 +624,7 @@ typedef struct {
 static void nearest_rows(void *ctx, size_t begin, size_t end)
 {
     const nearest_ctx *nc = ctx;
-    const phks_grid *g = nc->grid;
+    const phks__grid *g = nc->grid;
     size_t dmax = g->dims[0];
     if (g->dims[1] > dmax)
         dmax = g->dims[1];
@@ -633,7 +633,7 @@ static void nearest_rows(void *ctx, size_t begin, size_t end)
     for (size_t v = begin; v < end; v++) {
         const double *p = nc->xyz + 3 * v;
         size_t c[3];
-        phks_grid_cell(g, p, c);
+        phks__grid_cell(g, p, c);
         double best = INFINITY;
         uint32_t who = UINT32_MAX;
         /* Rings of cells at Chebyshev distance k: a sample in ring k + 1 is
@@ -691,26 +691,26 @@ static int by_pinned_vertex(const void *pa, const void *pb)
 }
 
 /* of_vertex for the samples out->vertex (positions from xyz). */
-static phks_status assign(const double *xyz, size_t n, phks_samples *out,
+static phks_status assign(const double *xyz, size_t n, phks__samples *out,
                           double rho, const phks_options *opt,
                           unsigned threads, double done, double span)
 {
     size_t m = out->count;
-    double *sample_xyz = phks_malloc_array(m, 3 * sizeof *sample_xyz);
+    double *sample_xyz = phks__malloc_array(m, 3 * sizeof *sample_xyz);
     if (!sample_xyz)
-        return phks_fail_oom("simplification: samples");
+        return phks__fail_oom("simplification: samples");
     for (size_t s = 0; s < m; s++)
         memcpy(sample_xyz + 3 * s, xyz + 3 * (size_t)out->vertex[s],
                3 * sizeof(double));
-    phks_grid grid = {0};
-    phks_status st = phks_grid_build(sample_xyz, m, 1, rho, &grid);
+    phks__grid grid = {0};
+    phks_status st = phks__grid_build(sample_xyz, m, 1, rho, &grid);
     if (st == PHKS_OK) {
         nearest_ctx nc = {&grid, sample_xyz, xyz, out->of_vertex};
-        st = phks_run_batched(n, threads, nearest_rows, &nc, opt,
+        st = phks__run_batched(n, threads, nearest_rows, &nc, opt,
                               PHKS_STAGE_OPERATOR, done, span, BATCHES);
     }
-    phks_grid_release(&grid);
-    phks_free(sample_xyz);
+    phks__grid_release(&grid);
+    phks__free(sample_xyz);
     return st;
 }
 
@@ -718,16 +718,16 @@ static phks_status assign(const double *xyz, size_t n, phks_samples *out,
  * vertex of its cell nearest to the cell's area-weighted centroid. Cells
  * are disjoint, so samples stay distinct. */
 static phks_status relax(const double *xyz, const double *vertex_area,
-                         size_t n, const phks_samples *out,
+                         size_t n, const phks__samples *out,
                          pinned_vertex *chosen)
 {
     size_t m = out->count;
-    double *cen = phks_calloc(m, 4 * sizeof *cen);
-    double *best = phks_malloc_array(m, sizeof *best);
+    double *cen = phks__calloc(m, 4 * sizeof *cen);
+    double *best = phks__malloc_array(m, sizeof *best);
     if (!cen || !best) {
-        phks_free(cen);
-        phks_free(best);
-        return phks_fail_oom("simplification: relaxation");
+        phks__free(cen);
+        phks__free(best);
+        return phks__fail_oom("simplification: relaxation");
     }
     for (size_t v = 0; v < n; v++) {
         double *c = cen + 4 * (size_t)out->of_vertex[v];
@@ -750,8 +750,8 @@ static phks_status relax(const double *xyz, const double *vertex_area,
             chosen[s].vertex = (uint32_t)v;
         }
     }
-    phks_free(cen);
-    phks_free(best);
+    phks__free(cen);
+    phks__free(best);
     return PHKS_OK;
 }
 
@@ -782,20 +782,20 @@ static phks_status densities(const double *points, const double *mass,
     phks_status st = kernel_points_build(points, count, h, radius, &kp);
     if (st != PHKS_OK)
         return st;
-    double *coef = phks_malloc_array(count, sizeof *coef);
+    double *coef = phks__malloc_array(count, sizeof *coef);
     if (!coef) {
         kernel_points_release(&kp);
-        return phks_fail_oom("simplification: kernel sums");
+        return phks__fail_oom("simplification: kernel sums");
     }
     to_grid_order(&kp, mass, coef);
     density_ctx dc = {&kp, coef, at, out0, out2};
     if (opt)
-        st = phks_run_batched(n_at, threads, density_rows, &dc, opt,
+        st = phks__run_batched(n_at, threads, density_rows, &dc, opt,
                               PHKS_STAGE_OPERATOR, done, span, BATCHES);
     else
-        phks_parallel_for(n_at, threads, density_rows, &dc);
+        phks__parallel_for(n_at, threads, density_rows, &dc);
     kernel_points_release(&kp);
-    phks_free(coef);
+    phks__free(coef);
     return st;
 }
 
@@ -815,20 +815,20 @@ static phks_status densities(const double *points, const double *mass,
  *   eigenvalues too low). gain_p = mesh moment / samples' moment, and the
  *   samples' operator uses kernel entries K_pq sqrt(gain_p gain_q). */
 static phks_status match_density(const double *xyz, const candidates *ref,
-                                 phks_samples *out, double h, double radius,
+                                 phks__samples *out, double h, double radius,
                                  double total, unsigned threads,
                                  const phks_options *opt, double done,
                                  double span)
 {
     size_t m = out->count;
-    double *at = phks_malloc_array(m, 3 * sizeof *at);
-    double *want0 = phks_malloc_array(m, sizeof *want0);
-    double *want2 = phks_malloc_array(m, sizeof *want2);
-    double *have = phks_malloc_array(m, sizeof *have);
-    out->gain = phks_malloc_array(m, sizeof *out->gain);
+    double *at = phks__malloc_array(m, 3 * sizeof *at);
+    double *want0 = phks__malloc_array(m, sizeof *want0);
+    double *want2 = phks__malloc_array(m, sizeof *want2);
+    double *have = phks__malloc_array(m, sizeof *have);
+    out->gain = phks__malloc_array(m, sizeof *out->gain);
     phks_status st = PHKS_OK;
     if (!at || !want0 || !want2 || !have || !out->gain)
-        st = phks_fail_oom("simplification: masses");
+        st = phks__fail_oom("simplification: masses");
     if (st == PHKS_OK) {
         for (size_t s = 0; s < m; s++)
             memcpy(at + 3 * s, xyz + 3 * (size_t)out->vertex[s], 3 * sizeof(double));
@@ -836,7 +836,7 @@ static phks_status match_density(const double *xyz, const candidates *ref,
                        threads, opt, done, span / 2, want0, want2);
     }
     for (int round = 0; st == PHKS_OK && round < DENSITY_ROUNDS; round++) {
-        st = phks_progress(opt, PHKS_STAGE_OPERATOR,
+        st = phks__progress(opt, PHKS_STAGE_OPERATOR,
                            done + span / 2 + span / 2 * round / DENSITY_ROUNDS);
         if (st == PHKS_OK)
             st = densities(at, out->area, m, at, m, h, radius, threads, NULL, 0,
@@ -863,10 +863,10 @@ static phks_status match_density(const double *xyz, const candidates *ref,
                        : gain > 4                    ? 4
                                                      : gain;
     }
-    phks_free(at);
-    phks_free(want0);
-    phks_free(want2);
-    phks_free(have);
+    phks__free(at);
+    phks__free(want0);
+    phks__free(want2);
+    phks__free(have);
     return st;
 }
 
@@ -874,9 +874,9 @@ static phks_status match_density(const double *xyz, const candidates *ref,
  * The whole step
  * --------------------------------------------------------------------- */
 
-phks_status phks_simplify(const phks_mesh *mesh, double scale,
+phks_status phks__simplify(const phks_mesh *mesh, double scale,
                           const double *vertex_area, const phks_options *opt,
-                          double done, double span, phks_samples *out)
+                          double done, double span, phks__samples *out)
 {
     memset(out, 0, sizeof *out);
     size_t n = mesh->vertex_count, target = opt->simplify_target;
@@ -886,19 +886,19 @@ phks_status phks_simplify(const phks_mesh *mesh, double scale,
     double rho = sqrt(PACKING * total / (double)target);
     double h = opt->tau, width = sqrt(4 * h);
     double cut = opt->cutoff < HEAT_CUTOFF ? opt->cutoff : HEAT_CUTOFF;
-    unsigned threads = phks_thread_count(opt);
+    unsigned threads = phks__thread_count(opt);
 
     candidates c = {0}, ref = {0};
     double *heat = NULL;
     unsigned char *keep = NULL;
     pinned_vertex *chosen = NULL;
     size_t m = 0;
-    double *xyz = phks_malloc_array(n, 3 * sizeof *xyz);
-    phks_status st = xyz ? PHKS_OK : phks_fail_oom("simplification");
+    double *xyz = phks__malloc_array(n, 3 * sizeof *xyz);
+    phks_status st = xyz ? PHKS_OK : phks__fail_oom("simplification");
     if (st == PHKS_OK) {
         for (size_t i = 0; i < 3 * n; i++)
             xyz[i] = mesh->xyz[i] * scale;
-        st = phks_progress(opt, PHKS_STAGE_OPERATOR, done);
+        st = phks__progress(opt, PHKS_STAGE_OPERATOR, done);
     }
     /* A surface of area S occupies about 1.5 S / eps^2 cells of edge eps
      * (the mean of |n_x| + |n_y| + |n_z| over directions n is 1.5). */
@@ -906,16 +906,16 @@ phks_status phks_simplify(const phks_mesh *mesh, double scale,
         st = make_candidates(xyz, n, vertex_area,
                              rho * sqrt(1.5 / (CANDIDATES * PACKING)), &c);
     if (st == PHKS_OK) {
-        heat = phks_malloc_array(c.count, sizeof *heat);
-        keep = phks_malloc_array(c.count, sizeof *keep);
+        heat = phks__malloc_array(c.count, sizeof *heat);
+        keep = phks__malloc_array(c.count, sizeof *keep);
         if (!heat || !keep)
-            st = phks_fail_oom("simplification");
+            st = phks__fail_oom("simplification");
     }
     if (st == PHKS_OK)
-        st = phks_heat_diagonal(c.xyz, c.area, c.count, h, cut * width, opt,
+        st = phks__heat_diagonal(c.xyz, c.area, c.count, h, cut * width, opt,
                                 done + 0.05 * span, 0.4 * span, heat);
     if (st == PHKS_OK)
-        st = phks_progress(opt, PHKS_STAGE_OPERATOR, done + 0.45 * span);
+        st = phks__progress(opt, PHKS_STAGE_OPERATOR, done + 0.45 * span);
     if (st == PHKS_OK)
         st = choose_samples(&c, heat, &rho, target, keep);
     if (st == PHKS_OK)
@@ -925,13 +925,13 @@ phks_status phks_simplify(const phks_mesh *mesh, double scale,
     for (size_t i = 0; st == PHKS_OK && i < c.count; i++)
         m += keep[i] != 0;
     if (st == PHKS_OK) {
-        chosen = phks_malloc_array(m, sizeof *chosen);
+        chosen = phks__malloc_array(m, sizeof *chosen);
         out->count = m;
-        out->vertex = phks_malloc_array(m, sizeof *out->vertex);
-        out->area = phks_calloc(m, sizeof *out->area);
-        out->of_vertex = phks_malloc_array(n, sizeof *out->of_vertex);
+        out->vertex = phks__malloc_array(m, sizeof *out->vertex);
+        out->area = phks__calloc(m, sizeof *out->area);
+        out->of_vertex = phks__malloc_array(n, sizeof *out->of_vertex);
         if (!chosen || !out->vertex || !out->area || !out->of_vertex)
-            st = phks_fail_oom("simplification: samples");
+            st = phks__fail_oom("simplification: samples");
     }
     if (st == PHKS_OK) {
         size_t k = 0;
@@ -952,7 +952,7 @@ phks_status phks_simplify(const phks_mesh *mesh, double scale,
     if (st == PHKS_OK) {
         for (size_t v = 0; v < n; v++)
             out->area[out->of_vertex[v]] += vertex_area[v];
-        st = phks_progress(opt, PHKS_STAGE_OPERATOR, done + 0.75 * span);
+        st = phks__progress(opt, PHKS_STAGE_OPERATOR, done + 0.75 * span);
     }
     if (st == PHKS_OK)
         st = make_candidates(xyz, n, vertex_area, REFERENCE_CELL * width, &ref);
@@ -960,13 +960,13 @@ phks_status phks_simplify(const phks_mesh *mesh, double scale,
         st = match_density(xyz, &ref, out, h, opt->cutoff * width, total,
                            threads, opt, done + 0.8 * span, 0.2 * span);
 
-    phks_free(chosen);
-    phks_free(xyz);
-    phks_free(heat);
-    phks_free(keep);
+    phks__free(chosen);
+    phks__free(xyz);
+    phks__free(heat);
+    phks__free(keep);
     candidates_release(&c);
     candidates_release(&ref);
     if (st != PHKS_OK)
-        phks_samples_release(out);
+        phks__samples_release(out);
     return st;
 }

@@ -17,28 +17,28 @@ void phks_spectrum_free(phks_spectrum *spec)
 {
     if (!spec)
         return;
-    phks_free(spec->values);
-    phks_free(spec->vectors);
-    phks_free(spec->mass);
-    phks_extension_free(spec->ext);
-    phks_free(spec);
+    phks__free(spec->values);
+    phks__free(spec->vectors);
+    phks__free(spec->mass);
+    phks__extension_free(spec->ext);
+    phks__free(spec);
 }
 
-static phks_status solve(const phks_operator_matrix *op, size_t k,
+static phks_status solve(const phks__operator_matrix *op, size_t k,
                          const phks_options *opt, double *values,
                          double *vectors)
 {
     switch (opt->solver) {
     case PHKS_SOLVER_ARPACK:
-        return phks_eigen_arpack(op, k, opt, values, vectors);
+        return phks__eigen_arpack(op, k, opt, values, vectors);
     case PHKS_SOLVER_DENSE:
-        return phks_eigen_dense(op, k, opt, values, vectors);
+        return phks__eigen_dense(op, k, opt, values, vectors);
     case PHKS_SOLVER_LANCZOS:
-        return phks_eigen_lanczos(op, k, opt, values, vectors);
+        return phks__eigen_lanczos(op, k, opt, values, vectors);
     default:
         if (op->n < AUTO_DENSE_BELOW)
-            return phks_eigen_dense(op, k, opt, values, vectors);
-        return phks_eigen_lanczos(op, k, opt, values, vectors);
+            return phks__eigen_dense(op, k, opt, values, vectors);
+        return phks__eigen_lanczos(op, k, opt, values, vectors);
     }
 }
 
@@ -71,14 +71,14 @@ static void finish_range(void *ctx, size_t begin, size_t end)
 static phks_status finish_vectors(phks_spectrum *spec, size_t n,
                                   const double *mass, const phks_options *opt)
 {
-    double *root = phks_malloc_array(n, sizeof *root);
+    double *root = phks__malloc_array(n, sizeof *root);
     if (!root)
-        return phks_fail_oom("spectrum");
+        return phks__fail_oom("spectrum");
     for (size_t i = 0; i < n; i++)
         root[i] = sqrt(mass[i]);
     finish_ctx f = {spec->vectors, n, root};
-    phks_parallel_for(spec->count, phks_thread_count(opt), finish_range, &f);
-    phks_free(root);
+    phks__parallel_for(spec->count, phks__thread_count(opt), finish_range, &f);
+    phks__free(root);
     return PHKS_OK;
 }
 
@@ -91,44 +91,44 @@ static phks_status compute_simplified(const phks_mesh *mesh,
 {
     size_t n = mesh->vertex_count;
     double scale;
-    phks_samples samples = {0};
-    phks_operator_matrix op = {0};
+    phks__samples samples = {0};
+    phks__operator_matrix op = {0};
     double *sample_xyz = NULL, *sample_mass = NULL;
-    double *area = phks_malloc_array(n, sizeof *area);
-    phks_status st = area ? PHKS_OK : phks_fail_oom("spectrum");
+    double *area = phks__malloc_array(n, sizeof *area);
+    phks_status st = area ? PHKS_OK : phks__fail_oom("spectrum");
     /* The unit box and the areas: three passes over the triangles, a
      * few tenths of a second on a million vertices. */
     if (st == PHKS_OK)
-        st = phks_progress(opt, PHKS_STAGE_OPERATOR, 0);
+        st = phks__progress(opt, PHKS_STAGE_OPERATOR, 0);
     if (st == PHKS_OK)
-        st = phks_unit_box_scale_progress(mesh, (phks_box)opt->box, opt,
+        st = phks__unit_box_scale_progress(mesh, (phks_box)opt->box, opt,
                                           PHKS_STAGE_OPERATOR, 0, 0.02, &scale);
     if (st == PHKS_OK)
-        st = phks_vertex_areas_progress(mesh, scale, opt, PHKS_STAGE_OPERATOR,
+        st = phks__vertex_areas_progress(mesh, scale, opt, PHKS_STAGE_OPERATOR,
                                         0.02, 0.01, area);
     if (st == PHKS_OK)
-        st = phks_simplify(mesh, scale, area, opt, 0.03, 0.82, &samples);
+        st = phks__simplify(mesh, scale, area, opt, 0.03, 0.82, &samples);
     size_t m = samples.count;
     if (st == PHKS_OK) {
-        sample_xyz = phks_malloc_array(m, 3 * sizeof *sample_xyz);
+        sample_xyz = phks__malloc_array(m, 3 * sizeof *sample_xyz);
         if (!sample_xyz)
-            st = phks_fail_oom("spectrum");
+            st = phks__fail_oom("spectrum");
     }
     if (st == PHKS_OK) {
         for (size_t s = 0; s < m; s++)
             for (int d = 0; d < 3; d++)
                 sample_xyz[3 * s + d] = mesh->xyz[3 * (size_t)samples.vertex[s] + d];
-        st = phks_point_operator_build(sample_xyz, m, scale, samples.area,
+        st = phks__point_operator_build(sample_xyz, m, scale, samples.area,
                                        samples.gain, opt, 0.85, 0.15, &op);
     }
     if (st == PHKS_OK) {
         spec->count = opt->eigen_count < m ? opt->eigen_count : m;
-        spec->values = phks_malloc_array(spec->count, sizeof(double));
-        spec->vectors = phks_malloc_array(m, spec->count * sizeof(double));
-        spec->mass = phks_malloc_array(n, sizeof(double));
-        sample_mass = phks_malloc_array(m, sizeof *sample_mass);
+        spec->values = phks__malloc_array(spec->count, sizeof(double));
+        spec->vectors = phks__malloc_array(m, spec->count * sizeof(double));
+        spec->mass = phks__malloc_array(n, sizeof(double));
+        sample_mass = phks__malloc_array(m, sizeof *sample_mass);
         if (!spec->values || !spec->vectors || !spec->mass || !sample_mass)
-            st = phks_fail_oom("spectrum");
+            st = phks__fail_oom("spectrum");
     }
     if (st == PHKS_OK) {
         memcpy(sample_mass, op.mass, m * sizeof *sample_mass);
@@ -140,17 +140,17 @@ static phks_status compute_simplified(const phks_mesh *mesh,
         }
         st = solve(&op, spec->count, opt, spec->values, spec->vectors);
     }
-    phks_operator_release(&op);
-    phks_free(area);
-    phks_free(sample_xyz);
+    phks__operator_release(&op);
+    phks__free(area);
+    phks__free(sample_xyz);
     if (st == PHKS_OK)
         st = finish_vectors(spec, m, sample_mass, opt);
     if (st == PHKS_OK) {
-        st = phks_extension_create(spec, mesh, scale, &samples, sample_mass);
+        st = phks__extension_create(spec, mesh, scale, &samples, sample_mass);
         sample_mass = NULL; /* handed over, even on failure */
     }
-    phks_free(sample_mass);
-    phks_samples_release(&samples);
+    phks__free(sample_mass);
+    phks__samples_release(&samples);
     return st;
 }
 
@@ -158,22 +158,22 @@ static phks_status compute_simplified(const phks_mesh *mesh,
 static phks_status compute_exact(const phks_mesh *mesh, const phks_options *opt,
                                  phks_spectrum *spec)
 {
-    phks_operator_matrix op;
-    phks_status st = phks_operator_build(mesh, opt, &op);
+    phks__operator_matrix op;
+    phks_status st = phks__operator_build(mesh, opt, &op);
     if (st != PHKS_OK)
         return st;
     size_t n = spec->n;
     spec->count = opt->eigen_count < n ? opt->eigen_count : n;
-    spec->values = phks_malloc_array(spec->count, sizeof(double));
-    spec->vectors = phks_malloc_array(n, spec->count * sizeof(double));
-    spec->mass = phks_malloc_array(n, sizeof(double));
+    spec->values = phks__malloc_array(spec->count, sizeof(double));
+    spec->vectors = phks__malloc_array(n, spec->count * sizeof(double));
+    spec->mass = phks__malloc_array(n, sizeof(double));
     if (!spec->values || !spec->vectors || !spec->mass)
-        st = phks_fail_oom("spectrum");
+        st = phks__fail_oom("spectrum");
     if (st == PHKS_OK) {
         memcpy(spec->mass, op.mass, n * sizeof(double));
         st = solve(&op, spec->count, opt, spec->values, spec->vectors);
     }
-    phks_operator_release(&op);
+    phks__operator_release(&op);
     if (st == PHKS_OK)
         st = finish_vectors(spec, n, spec->mass, opt);
     return st;
@@ -183,18 +183,18 @@ static phks_status compute_exact(const phks_mesh *mesh, const phks_options *opt,
 static phks_status compute(const phks_mesh *mesh, const phks_options *opt,
                            phks_spectrum **out)
 {
-    phks_spectrum *spec = phks_calloc(1, sizeof *spec);
+    phks_spectrum *spec = phks__calloc(1, sizeof *spec);
     if (!spec)
-        return phks_fail_oom("spectrum");
+        return phks__fail_oom("spectrum");
     spec->n = mesh->vertex_count;
     spec->options = *opt;
     spec->options.progress = NULL;
     spec->options.progress_user = NULL;
-    phks_status st = phks_simplify_applies(opt, spec->n)
+    phks_status st = phks__simplify_applies(opt, spec->n)
                          ? compute_simplified(mesh, opt, spec)
                          : compute_exact(mesh, opt, spec);
     if (st == PHKS_OK)
-        st = phks_progress(opt, PHKS_STAGE_EIGEN, 1);
+        st = phks__progress(opt, PHKS_STAGE_EIGEN, 1);
     if (st != PHKS_OK) {
         phks_spectrum_free(spec);
         return st;
@@ -210,15 +210,15 @@ phks_status phks_spectrum_compute(const phks_mesh *mesh,
     if (out)
         *out = NULL;
     if (!mesh || !out)
-        return phks_fail(PHKS_ERROR_INVALID_ARGUMENT,
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "phks_spectrum_compute: NULL argument");
     phks_options opt;
-    phks_status st = phks_options_resolve(options, &opt);
+    phks_status st = phks__options_resolve(options, &opt);
     if (st != PHKS_OK)
         return st;
-    phks_team *team = phks_team_enter(phks_thread_count(&opt));
+    phks__team *team = phks__team_enter(phks__thread_count(&opt));
     st = compute(mesh, &opt, out);
-    phks_team_leave(team);
+    phks__team_leave(team);
     return st;
 }
 

@@ -17,17 +17,17 @@ struct phks_spectrum {
                              its area times Mh / A of its sample), so
                              the sum is the total mass either way     */
     phks_options options; /* resolved options it was computed with    */
-    struct phks_extension *ext; /* HKS-simp: the samples and what the
+    struct phks__extension *ext; /* HKS-simp: the samples and what the
                              extension to every vertex needs; NULL for
                              an exact spectrum                        */
 };
 
 /* HKS_t at one vertex: sum_i exp(-t lambda_i) phi_i(v)^2 (through the
  * extension with HKS-simp). */
-double phks_hks_at(const phks_spectrum *spec, double t, size_t v);
+double phks__hks_at(const phks_spectrum *spec, double t, size_t v);
 /* HKS_t at every vertex into out (n values), reporting PHKS_STAGE_HKS
  * progress through opt (its threads too); t finite and >= 0. */
-phks_status phks_hks_all(const phks_spectrum *spec, double t,
+phks_status phks__hks_all(const phks_spectrum *spec, double t,
                          const phks_options *opt, double *out);
 
 #endif /* PHKS_SPECTRUM_H */
