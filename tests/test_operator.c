@@ -34,6 +34,21 @@
 #include <stdlib.h>
 #include <string.h>
 
+/* The operator of a mesh as the library builds it: the unit box and the
+ * vertex areas, then the matrix. */
+static phks_status mesh_operator(const phks_mesh *mesh, const phks_options *opt,
+                                 phks__operator_matrix *op)
+{
+    phks__unit_mesh um;
+    phks_status st = phks__unit_mesh_init(mesh, (phks_box)opt->box,
+                                          PHKS__SPAN_NONE, &um);
+    if (st != PHKS_OK)
+        return st;
+    st = phks__operator_build(&um, opt, PHKS__SPAN_NONE, op);
+    phks__unit_mesh_release(&um);
+    return st;
+}
+
 /* =====================================================================
  * Meshes
  * ===================================================================== */
@@ -240,7 +255,7 @@ static void compare_operator(const char *name, const phks_mesh *mesh,
                 name, d.near_cut);
     size_t n = d.n;
     phks__operator_matrix op;
-    phks_status st = phks__operator_build(mesh, opt, &op);
+    phks_status st = mesh_operator(mesh, opt, &op);
     REQUIRE_MSG(st == PHKS_OK, "%s: %s", name, phks_last_error_message());
     REQUIRE(op.n == n);
 
@@ -352,7 +367,7 @@ static void compare_operator(const char *name, const phks_mesh *mesh,
         phks_options o = *opt;
         o.threads = threads;
         phks__operator_matrix op2;
-        REQUIRE(phks__operator_build(mesh, &o, &op2) == PHKS_OK);
+        REQUIRE(mesh_operator(mesh, &o, &op2) == PHKS_OK);
         REQUIRE(op2.n == n && op2.row_start[n] == op.row_start[n]);
         REQUIRE(memcmp(op2.row_start, op.row_start, (n + 1) * sizeof *op.row_start) == 0);
         REQUIRE(memcmp(op2.col, op.col, op.row_start[n] * sizeof *op.col) == 0);
@@ -383,7 +398,7 @@ static void check_mesh(const char *name, const soup *s, double tau,
 {
     phks_mesh *mesh = soup_mesh(s);
     double scale = axis_aligned_scale(mesh), lib_scale = 0;
-    REQUIRE(phks__unit_box_scale(mesh, PHKS_BOX_AXIS_ALIGNED, &lib_scale) == PHKS_OK);
+    REQUIRE(phks__unit_box_scale(mesh, PHKS_BOX_AXIS_ALIGNED, PHKS__SPAN_NONE, &lib_scale) == PHKS_OK);
     REQUIRE_MSG(fabs(lib_scale - scale) <= 1e-15 * scale,
                 "%s: axis-aligned scale %.17g, expected %.17g", name, lib_scale,
                 scale);
@@ -513,8 +528,8 @@ START_TEST(test_principal_box)
     add_icosphere(&sym, 2, c, ax, 0, &rng);
     phks_mesh *mesh = soup_mesh(&sym);
     double principal, aligned;
-    REQUIRE(phks__unit_box_scale(mesh, PHKS_BOX_PRINCIPAL, &principal) == PHKS_OK);
-    REQUIRE(phks__unit_box_scale(mesh, PHKS_BOX_AXIS_ALIGNED, &aligned) == PHKS_OK);
+    REQUIRE(phks__unit_box_scale(mesh, PHKS_BOX_PRINCIPAL, PHKS__SPAN_NONE, &principal) == PHKS_OK);
+    REQUIRE(phks__unit_box_scale(mesh, PHKS_BOX_AXIS_ALIGNED, PHKS__SPAN_NONE, &aligned) == PHKS_OK);
     /* The icosphere is symmetric under each coordinate reflection, so its
      * principal axes are x, y, z and the box is 2 x 1.2 x 0.6. */
     REQUIRE_MSG(fabs(principal - 0.5) < 1e-12, "principal scale %.17g", principal);
@@ -527,7 +542,7 @@ START_TEST(test_principal_box)
     add_icosphere(&base, 3, c, ax, 0.02, &rng);
     phks_mesh *original = soup_mesh(&base);
     double s0;
-    REQUIRE(phks__unit_box_scale(original, PHKS_BOX_PRINCIPAL, &s0) == PHKS_OK);
+    REQUIRE(phks__unit_box_scale(original, PHKS_BOX_PRINCIPAL, PHKS__SPAN_NONE, &s0) == PHKS_OK);
     double worst = 0;
     for (int trial = 0; trial < 6; trial++) {
         soup r = {0};
@@ -538,11 +553,11 @@ START_TEST(test_principal_box)
         rotate(&r, rot, shift);
         phks_mesh *rotated = soup_mesh(&r);
         double s1, a1;
-        REQUIRE(phks__unit_box_scale(rotated, PHKS_BOX_PRINCIPAL, &s1) == PHKS_OK);
+        REQUIRE(phks__unit_box_scale(rotated, PHKS_BOX_PRINCIPAL, PHKS__SPAN_NONE, &s1) == PHKS_OK);
         REQUIRE_MSG(fabs(s1 - s0) <= 1e-12 * s0,
                     "rotation %d: principal scale %.17g, original %.17g", trial, s1, s0);
         worst = fmax(worst, fabs(s1 - s0) / s0);
-        REQUIRE(phks__unit_box_scale(rotated, PHKS_BOX_AXIS_ALIGNED, &a1) == PHKS_OK);
+        REQUIRE(phks__unit_box_scale(rotated, PHKS_BOX_AXIS_ALIGNED, PHKS__SPAN_NONE, &a1) == PHKS_OK);
         REQUIRE(fabs(a1 - axis_aligned_scale(rotated)) <= 1e-15 * a1);
 
         if (trial < 2)
@@ -557,8 +572,8 @@ START_TEST(test_principal_box)
                 compare_operator("principal-rotated", rotated, &opt, s1);
                 /* ...and equal to the original's up to rounding. */
                 phks__operator_matrix o0, o1;
-                REQUIRE(phks__operator_build(original, &opt, &o0) == PHKS_OK);
-                REQUIRE(phks__operator_build(rotated, &opt, &o1) == PHKS_OK);
+                REQUIRE(mesh_operator(original, &opt, &o0) == PHKS_OK);
+                REQUIRE(mesh_operator(rotated, &opt, &o1) == PHKS_OK);
                 REQUIRE(o0.row_start[o0.n] == o1.row_start[o1.n]);
                 double *d0 = densify(&o0), *d1 = densify(&o1);
                 size_t n = o0.n;
@@ -831,7 +846,7 @@ START_TEST(test_principal_box_any_size_and_blas_threads)
     rotate(&base, rot, shift);
     phks_mesh *mesh = soup_mesh(&base);
     double s0;
-    REQUIRE(phks__unit_box_scale(mesh, PHKS_BOX_PRINCIPAL, &s0) == PHKS_OK);
+    REQUIRE(phks__unit_box_scale(mesh, PHKS_BOX_PRINCIPAL, PHKS__SPAN_NONE, &s0) == PHKS_OK);
     phks_mesh_free(mesh);
     const double sizes[] = {0x1p-490, 0x1p-100, 0x1p100, 0x1p490,
                             1e-150,   1e-100,   1e-60,   1e60,
@@ -843,7 +858,7 @@ START_TEST(test_principal_box_any_size_and_blas_threads)
             t.xyz[k] = base.xyz[k] * sizes[i];
         phks_mesh *m = soup_mesh(&t);
         double s;
-        phks_status st = phks__unit_box_scale(m, PHKS_BOX_PRINCIPAL, &s);
+        phks_status st = phks__unit_box_scale(m, PHKS_BOX_PRINCIPAL, PHKS__SPAN_NONE, &s);
         REQUIRE_MSG(st == PHKS_OK, "size %g: %s", sizes[i], phks_last_error_message());
         if (i < 4)
             REQUIRE_MSG(s * sizes[i] == s0, "size %g: %.17g, at 1: %.17g",
@@ -860,7 +875,7 @@ START_TEST(test_principal_box_any_size_and_blas_threads)
     int before = openblas_get_num_threads();
     for (int t = 0; t < 2; t++) {
         openblas_set_num_threads(t + 1);
-        REQUIRE(phks__unit_box_scale(mesh, PHKS_BOX_PRINCIPAL, &by[t]) == PHKS_OK);
+        REQUIRE(phks__unit_box_scale(mesh, PHKS_BOX_PRINCIPAL, PHKS__SPAN_NONE, &by[t]) == PHKS_OK);
     }
     openblas_set_num_threads(before);
     REQUIRE(memcmp(&by[0], &by[1], sizeof by[0]) == 0);

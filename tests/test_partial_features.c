@@ -62,7 +62,7 @@ static double nearest_feature(const phks_mesh *m, const phks_options *o)
     phks_signature *sig;
     ck_assert_int_eq(phks_signature_compute(m, o, &sig), PHKS_OK);
     double scale;
-    ck_assert_int_eq(phks__unit_box_scale(m, (phks_box)o->box, &scale), PHKS_OK);
+    ck_assert_int_eq(phks__unit_box_scale(m, (phks_box)o->box, PHKS__SPAN_NONE, &scale), PHKS_OK);
     double width = sqrt(4 * o->feature_scale * o->tau), nearest = INFINITY;
     for (size_t i = 0; i < phks_signature_feature_count(sig); i++)
         nearest = fmin(nearest,
@@ -236,7 +236,8 @@ START_TEST(boundary_distances_are_exact_and_cancellable)
         }
         size_t n = phks_mesh_vertex_count(m);
         double scale, cap = which == 0 ? 0.1 : 0.05;
-        ck_assert_int_eq(phks__unit_box_scale(m, PHKS_BOX_PRINCIPAL, &scale), PHKS_OK);
+        ck_assert_int_eq(phks__unit_box_scale(m, PHKS_BOX_PRINCIPAL, PHKS__SPAN_NONE, &scale), PHKS_OK);
+        phks__unit_mesh um = {m, scale, NULL}; /* the distances need no areas */
         double *d1 = malloc(n * sizeof *d1), *d3 = malloc(n * sizeof *d3);
         ck_assert(d1 && d3);
         phks_options o;
@@ -245,18 +246,15 @@ START_TEST(boundary_distances_are_exact_and_cancellable)
         int reports = 1 << 30; /* never cancels */
         o.progress = cancel_at_report;
         o.progress_user = &reports;
-        ck_assert_int_eq(phks__boundary_distance(m, scale, cap, &o,
-                                                PHKS_STAGE_PERSISTENCE, 0, 1, d1),
+        ck_assert_int_eq(phks__boundary_distance(&um, cap, (phks__span){&o, PHKS_STAGE_PERSISTENCE, 0, 1}, d1),
                          PHKS_OK);
         int calls = (1 << 30) - reports;
         ck_assert_int_eq(calls, which == 0 ? 1 : 2);
         o.threads = 3;
-        ck_assert_int_eq(phks__boundary_distance(m, scale, cap, NULL,
-                                                PHKS_STAGE_PERSISTENCE, 0, 1, d3),
+        ck_assert_int_eq(phks__boundary_distance(&um, cap, (phks__span){NULL, PHKS_STAGE_PERSISTENCE, 0, 1}, d3),
                          PHKS_OK);
         ck_assert(memcmp(d1, d3, n * sizeof *d1) == 0);
-        ck_assert_int_eq(phks__boundary_distance(m, scale, cap, &o,
-                                                PHKS_STAGE_PERSISTENCE, 0, 1, d3),
+        ck_assert_int_eq(phks__boundary_distance(&um, cap, (phks__span){&o, PHKS_STAGE_PERSISTENCE, 0, 1}, d3),
                          PHKS_OK);
         ck_assert(memcmp(d1, d3, n * sizeof *d1) == 0);
         size_t capped = 0;
@@ -272,9 +270,7 @@ START_TEST(boundary_distances_are_exact_and_cancellable)
         for (int k = 1; k <= calls; k++) {
             long live = alloc_live;
             reports = k;
-            ck_assert_int_eq(phks__boundary_distance(m, scale, cap, &o,
-                                                    PHKS_STAGE_PERSISTENCE, 0,
-                                                    1, d3),
+            ck_assert_int_eq(phks__boundary_distance(&um, cap, (phks__span){&o, PHKS_STAGE_PERSISTENCE, 0, 1}, d3),
                              PHKS_ERROR_CANCELLED);
             ck_assert_int_eq(alloc_live, live);
         }

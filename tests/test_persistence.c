@@ -1011,8 +1011,10 @@ static int reports_of(const phks_mesh *mesh, const double *f, size_t max_count)
     o.progress_user = &log;
     ck_assert_int_eq(phks_persistent_maxima(mesh, f, max_count, 0, a, &ca, la),
                      PHKS_OK);
-    ck_assert_int_eq(phks__persistence_run(mesh, f, max_count, 0, b, &cb, lb, &o,
-                                          0.25, 0.5),
+    ck_assert_int_eq(phks__persistence_run(mesh, f, max_count, 0,
+                                           (phks__span){&o, PHKS_STAGE_PERSISTENCE,
+                                                        0.25, 0.5},
+                                           b, &cb, lb),
                      PHKS_OK);
     ck_assert_uint_eq(ca, cb);
     ck_assert(memcmp(a, b, ca * sizeof *a) == 0);
@@ -1073,8 +1075,10 @@ START_TEST(test_progress_grows_and_cancels)
         phks_maximum out[15];
         size_t count = 99;
         long live = alloc_live;
-        ck_assert_int_eq(phks__persistence_run(mesh, f, 15, 0, out, &count,
-                                              label, &o, 0.25, 0.5),
+        ck_assert_int_eq(phks__persistence_run(mesh, f, 15, 0,
+                                               (phks__span){&o, PHKS_STAGE_PERSISTENCE,
+                                                            0.25, 0.5},
+                                               out, &count, label),
                          PHKS_ERROR_CANCELLED);
         ck_assert_int_eq(log.calls, k); /* nothing after the cancellation */
         ck_assert_uint_eq(count, 0);

@@ -171,13 +171,13 @@ START_TEST(point_operator_gains_scale_the_kernel)
         phks_options_init(&o);
         o.operator_kind = kind;
         double scale;
-        ck_assert_int_eq(phks__unit_box_scale(m, PHKS_BOX_PRINCIPAL, &scale), PHKS_OK);
+        ck_assert_int_eq(phks__unit_box_scale(m, PHKS_BOX_PRINCIPAL, PHKS__SPAN_NONE, &scale), PHKS_OK);
         double *area = malloc(n * sizeof *area), *ones = malloc(n * sizeof *ones);
         double *gain = malloc(n * sizeof *gain);
         ck_assert_ptr_nonnull(area);
         ck_assert_ptr_nonnull(ones);
         ck_assert_ptr_nonnull(gain);
-        phks__vertex_areas(m, scale, area);
+        ck_assert_int_eq(phks__vertex_areas(m, scale, PHKS__SPAN_NONE, area), PHKS_OK);
         uint64_t state = 7;
         for (size_t i = 0; i < n; i++) {
             ones[i] = 1;
@@ -186,12 +186,15 @@ START_TEST(point_operator_gains_scale_the_kernel)
         }
         const double *xyz = phks_mesh_vertices(m);
         phks__operator_matrix a, b, c;
-        ck_assert_int_eq(phks__point_operator_build(xyz, n, scale, area, NULL, &o,
-                                                   0, 1, &a), PHKS_OK);
-        ck_assert_int_eq(phks__point_operator_build(xyz, n, scale, area, ones, &o,
-                                                   0, 1, &b), PHKS_OK);
-        ck_assert_int_eq(phks__point_operator_build(xyz, n, scale, area, gain, &o,
-                                                   0, 1, &c), PHKS_OK);
+        phks__points pa = {xyz, n, scale, area, NULL};
+        phks__points pb = {xyz, n, scale, area, ones};
+        phks__points pc = {xyz, n, scale, area, gain};
+        ck_assert_int_eq(phks__operator_build_points(&pa, &o, PHKS__SPAN_NONE, &a),
+                         PHKS_OK);
+        ck_assert_int_eq(phks__operator_build_points(&pb, &o, PHKS__SPAN_NONE, &b),
+                         PHKS_OK);
+        ck_assert_int_eq(phks__operator_build_points(&pc, &o, PHKS__SPAN_NONE, &c),
+                         PHKS_OK);
         size_t nnz = a.row_start[n];
         ck_assert_int_eq(memcmp(b.row_start, a.row_start,
                                 (n + 1) * sizeof *a.row_start), 0);
@@ -246,7 +249,8 @@ START_TEST(heat_diagonal_matches_dense)
     const double h = 2e-4, radii[2] = {1.0, 3 * sqrt(4 * h)};
     for (int ri = 0; ri < 2; ri++) {
         double r = radii[ri];
-        ck_assert_int_eq(phks__heat_diagonal(xyz, area, N, h, r, NULL, 0, 0, heat),
+        ck_assert_int_eq(phks__heat_diagonal(&(phks__kernel_points){xyz, area, N, h, r},
+                                             NULL, PHKS__SPAN_NONE, heat),
                          PHKS_OK);
         for (int i = 0; i < N; i++) {
             d[i] = 0;
@@ -280,15 +284,16 @@ START_TEST(samples_cover_the_mesh_and_carry_its_area)
     phks_options o;
     simp_options(&o, 1500);
     double scale;
-    ck_assert_int_eq(phks__unit_box_scale(m, PHKS_BOX_PRINCIPAL, &scale), PHKS_OK);
+    ck_assert_int_eq(phks__unit_box_scale(m, PHKS_BOX_PRINCIPAL, PHKS__SPAN_NONE, &scale), PHKS_OK);
     double *area = malloc(n * sizeof *area);
     ck_assert_ptr_nonnull(area);
-    phks__vertex_areas(m, scale, area);
+    ck_assert_int_eq(phks__vertex_areas(m, scale, PHKS__SPAN_NONE, area), PHKS_OK);
     double total = 0;
     for (size_t v = 0; v < n; v++)
         total += area[v];
     phks__samples s;
-    ck_assert_int_eq(phks__simplify(m, scale, area, &o, 0, 1, &s), PHKS_OK);
+    phks__unit_mesh um = {m, scale, area};
+    ck_assert_int_eq(phks__simplify(&um, &o, PHKS__SPAN_NONE, &s), PHKS_OK);
     ck_assert_uint_ge(s.count, 1425);
     ck_assert_uint_le(s.count, 1575);
     const double *xyz = phks_mesh_vertices(m);

@@ -51,6 +51,23 @@ phks_status phks__options_resolve(const phks_options *user, phks_options *out);
 phks_status phks__progress(const phks_options *opt, phks_stage stage,
                           double fraction);
 
+/* Where a long step reports: the fractions done .. done + span of `stage`,
+ * through opt's callback (opt NULL: nowhere). A caller hands a step its
+ * part of its own span, so nested steps report one rising sequence. */
+typedef struct phks__span {
+    const phks_options *opt;
+    phks_stage stage;
+    double done, span;
+} phks__span;
+
+/* The span reporting nowhere. */
+#define PHKS__SPAN_NONE ((phks__span){NULL, PHKS_STAGE_OPERATOR, 0, 0})
+/* Reports done + span * fraction (fraction in [0, 1]); returns
+ * PHKS_ERROR_CANCELLED when the callback asks, PHKS_OK without one. */
+phks_status phks__span_report(phks__span s, double fraction);
+/* The part of s from fraction `from` to fraction `to` of it. */
+phks__span phks__span_part(phks__span s, double from, double to);
+
 /* ---- threads (parallel.c) */
 /* Calls fn(ctx, begin, end) over [0, n) split into `threads` contiguous
  * chunks on worker threads (falls back to the calling thread alone). */
@@ -68,12 +85,10 @@ unsigned phks__thread_count(const phks_options *opt);
 /* Runs fn(ctx, begin, end) over [0, n) in `batches` consecutive batches,
  * each split over `threads` workers by phks__parallel_for (so the outputs
  * never depend on the thread count when fn writes disjoint entries), and
- * reports progress in `stage` from done to done + span before each batch:
- * a cancellation is noticed within one batch. opt may be NULL. */
+ * reports progress through `at` before each batch: a cancellation is
+ * noticed within one batch. */
 phks_status phks__run_batched(size_t n, unsigned threads, phks__range_fn fn,
-                             void *ctx, const phks_options *opt,
-                             phks_stage stage, double done, double span,
-                             size_t batches);
+                              void *ctx, phks__span at, size_t batches);
 
 /* ---- deterministic start vectors (random.c) */
 /* Fills v with n numbers in [-0.5, 0.5) from a fixed generator started at

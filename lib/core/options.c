@@ -136,3 +136,17 @@ phks_status phks__progress(const phks_options *opt, phks_stage stage,
                          "cancelled by the progress callback");
     return PHKS_OK;
 }
+
+phks_status phks__span_report(phks__span s, double fraction)
+{
+    if (!s.opt)
+        return PHKS_OK;
+    return phks__progress(s.opt, s.stage, s.done + s.span * fraction);
+}
+
+phks__span phks__span_part(phks__span s, double from, double to)
+{
+    phks__span part = {s.opt, s.stage, s.done + s.span * from,
+                       s.span * (to - from)};
+    return part;
+}

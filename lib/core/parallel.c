@@ -297,17 +297,12 @@ static void run_offset(void *ctx, size_t begin, size_t end)
 }
 
 phks_status phks__run_batched(size_t n, unsigned threads, phks__range_fn fn,
-                             void *ctx, const phks_options *opt,
-                             phks_stage stage, double done, double span,
-                             size_t batches)
+                              void *ctx, phks__span at, size_t batches)
 {
     for (size_t b = 0; b < batches; b++) {
-        if (opt) {
-            phks_status st = phks__progress(opt, stage,
-                                           done + span * (double)b / (double)batches);
-            if (st != PHKS_OK)
-                return st;
-        }
+        phks_status st = phks__span_report(at, (double)b / (double)batches);
+        if (st != PHKS_OK)
+            return st;
         size_t lo = n * b / batches, hi = n * (b + 1) / batches;
         offset_ctx o = {fn, ctx, lo};
         phks__parallel_for(hi - lo, threads, run_offset, &o);

@@ -8,19 +8,15 @@
 #include "spectrum/spectrum.h"
 
 /* ---- persistence (persistence.c) */
-/* phks_persistent_maxima with progress: reports PHKS_STAGE_PERSISTENCE
- * fractions from done to done + span through opt (NULL: none) at the
+/* phks_persistent_maxima with progress: reports through `at` at the
  * start of each phase and every 65,536 triangles, edges or merges inside
- * one (dozens of times a second on a million vertices; a count that
- * depends on the mesh and f alone), and returns PHKS_ERROR_CANCELLED,
- * everything freed and *count 0, when the callback asks. The results are
- * those of phks_persistent_maxima, bit for bit. */
+ * one (a count that depends on the mesh and f alone), and returns
+ * PHKS_ERROR_CANCELLED, everything freed and *count 0, when the callback
+ * asks. The results are those of phks_persistent_maxima, bit for bit. */
 phks_status phks__persistence_run(const phks_mesh *mesh, const double *f,
-                                 size_t max_count, double threshold,
-                                 phks_maximum *out, size_t *count,
-                                 uint32_t *region_of_triangle,
-                                 const phks_options *opt, double done,
-                                 double span);
+                                  size_t max_count, double threshold,
+                                  phks__span at, phks_maximum *out,
+                                  size_t *count, uint32_t *region_of_triangle);
 
 /* ---- signature (signature.c, signature_codec.c, score.c) */
 struct phks_signature {

@@ -134,10 +134,10 @@ typedef struct merger {
                                node 4t+k is tri[t].node[k]               */
     region_entry *queue;
     size_t queue_size;
-    /* Progress in PHKS_STAGE_PERSISTENCE from done to done + span (opt
-     * NULL: none); the current phase covers [from, from + width) of it. */
-    const phks_options *opt;
-    double done, span, from, width;
+    /* Progress through `at`; the current phase covers [from, from +
+     * width) of it. */
+    phks__span at;
+    double from, width;
     size_t pops;            /* heap nodes popped so far: the merging
                                loops count them as steps                */
 } merger;
@@ -191,10 +191,10 @@ static int due_steps(size_t steps, size_t *next)
 /* Reports the fraction i / n of the current phase. */
 static phks_status report(const merger *m, size_t i, size_t n)
 {
-    if (!m->opt || !m->opt->progress)
+    if (!m->at.opt || !m->at.opt->progress)
         return PHKS_OK;
     double x = m->from + m->width * (n > 0 && i < n ? (double)i / (double)n : 1);
-    return phks__progress(m->opt, PHKS_STAGE_PERSISTENCE, m->done + m->span * x);
+    return phks__span_report(m->at, x);
 }
 
 /* Starts the part [from, to) (fractions of it) of phase p, with a
@@ -801,16 +801,14 @@ phks_status phks_persistent_maxima(const phks_mesh *mesh, const double *f,
                                    phks_maximum *out, size_t *count,
                                    uint32_t *region_of_triangle)
 {
-    return phks__persistence_run(mesh, f, max_count, threshold, out, count,
-                                region_of_triangle, NULL, 0, 0);
+    return phks__persistence_run(mesh, f, max_count, threshold, PHKS__SPAN_NONE,
+                                 out, count, region_of_triangle);
 }
 
 phks_status phks__persistence_run(const phks_mesh *mesh, const double *f,
-                                 size_t max_count, double threshold,
-                                 phks_maximum *out, size_t *count,
-                                 uint32_t *region_of_triangle,
-                                 const phks_options *opt, double done,
-                                 double span)
+                                  size_t max_count, double threshold,
+                                  phks__span at, phks_maximum *out,
+                                  size_t *count, uint32_t *region_of_triangle)
 {
     if (count)
         *count = 0;
@@ -833,9 +831,7 @@ phks_status phks__persistence_run(const phks_mesh *mesh, const double *f,
                              v, f[v]);
 
     merger m = {0};
-    m.opt = opt;
-    m.done = done;
-    m.span = span;
+    m.at = at;
     phks_status st = merger_init(&m, mesh, f);
     if (st != PHKS_OK)
         return st;

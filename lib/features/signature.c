@@ -94,10 +94,9 @@ static double hks_factor(const phks_spectrum *spec, const phks_options *opt,
 
 /* The local areas of features [begin, end), for phks__run_batched. */
 typedef struct {
-    const phks_mesh *mesh;
+    const phks__unit_mesh *um;
     const phks_signature *sig;
-    const double *vertex_area, *radius2;
-    double scale;
+    const double *radius2;
     double *area; /* sig->count x sig->length */
 } areas_ctx;
 
@@ -105,8 +104,8 @@ static void areas_range(void *ctx, size_t begin, size_t end)
 {
     const areas_ctx *c = ctx;
     for (size_t i = begin; i < end; i++)
-        phks__local_areas(c->mesh, c->scale, c->vertex_area, c->sig->vertex[i],
-                         c->radius2, c->sig->length, c->area + i * c->sig->length);
+        phks__local_areas(c->um, c->sig->vertex[i], c->radius2, c->sig->length,
+                          c->area + i * c->sig->length);
 }
 
 /* A_t of every feature point for PHKS_HKS_SCALING_LOCAL_AREA into area
@@ -114,21 +113,16 @@ static void areas_range(void *ctx, size_t begin, size_t end)
  * the features spread over opt->threads and progress reported
  * (PHKS_STAGE_PERSISTENCE, 0.95 to 1) between batches: on the 1.6M-vertex
  * armadillo this takes about half a second. */
-static phks_status local_areas(const phks_mesh *mesh, const phks_options *opt,
-                               double scale, const phks_signature *sig,
+static phks_status local_areas(const phks__unit_mesh *um,
+                               const phks_options *opt,
+                               const phks_signature *sig,
                                const double *radius2, double *area)
 {
-    double *vertex_area = phks__malloc_array(mesh->vertex_count, sizeof *vertex_area);
-    if (!vertex_area)
-        return phks__fail_oom("feature vectors");
-    phks__vertex_areas(mesh, scale, vertex_area);
-    areas_ctx c = {mesh, sig, vertex_area, radius2, scale, area};
+    areas_ctx c = {um, sig, radius2, area};
     unsigned threads = phks__thread_count(opt);
-    phks_status st = phks__run_batched(sig->count, threads, areas_range, &c, opt,
-                                      PHKS_STAGE_PERSISTENCE, 0.95, 0.05,
-                                      (sig->count + threads - 1) / threads);
-    phks__free(vertex_area);
-    return st;
+    phks__span at = {opt, PHKS_STAGE_PERSISTENCE, 0.95, 0.05};
+    return phks__run_batched(sig->count, threads, areas_range, &c, at,
+                             (sig->count + threads - 1) / threads);
 }
 
 /* The feature vectors of sig's points: HKS at each time scale, scaled as
@@ -138,9 +132,9 @@ static phks_status local_areas(const phks_mesh *mesh, const phks_options *opt,
  * every scale alike, where the plain values fall from about 80 at 5 tau
  * to about 1 at 1000 tau and the first scales would decide the L1
  * distance alone. */
-static phks_status feature_vectors(const phks_mesh *mesh,
+static phks_status feature_vectors(const phks__unit_mesh *um,
                                    const phks_spectrum *spec,
-                                   const phks_options *opt, double scale,
+                                   const phks_options *opt,
                                    phks_signature *sig)
 {
     size_t S = opt->scale_count;
@@ -155,7 +149,7 @@ static phks_status feature_vectors(const phks_mesh *mesh,
         area = phks__malloc_array(sig->count, S * sizeof *area);
         if (!area)
             return phks__fail_oom("feature vectors");
-        phks_status st = local_areas(mesh, opt, scale, sig, radius2, area);
+        phks_status st = local_areas(um, opt, sig, radius2, area);
         if (st != PHKS_OK) {
             phks__free(area);
             return st;
@@ -183,9 +177,10 @@ static bool tapers(const phks_mesh *mesh, const phks_options *opt)
     return opt->boundary_margin != 0 && mesh->boundary_edge_count != 0;
 }
 
-/* Progress in PHKS_STAGE_PERSISTENCE: the unit box's scale (which the
- * taper and the local areas need) from 0 to SCALE_SPAN, the taper's
- * distances up to TAPER_SPAN. */
+/* Progress in PHKS_STAGE_PERSISTENCE: the unit box's scale and areas
+ * (which the taper and the local areas need), when the caller did not
+ * hand them down, from 0 to SCALE_SPAN, the taper's distances up to
+ * TAPER_SPAN. */
 #define SCALE_SPAN 0.05
 #define TAPER_SPAN 0.3
 
@@ -195,10 +190,10 @@ static bool tapers(const phks_mesh *mesh, const phks_options *opt)
  * that would have crossed it stays), so without this every maximum of a
  * partial scan sits on its silhouette; with it, the boundary is a minimum
  * and the maxima are those the piece shares with its whole. */
-static phks_status taper_at_boundary(const phks_mesh *mesh,
-                                     const phks_options *opt, double scale,
-                                     double *h)
+static phks_status taper_at_boundary(const phks__unit_mesh *um,
+                                     const phks_options *opt, double *h)
 {
+    const phks_mesh *mesh = um->mesh;
     if (!tapers(mesh, opt))
         return PHKS_OK;
     double m = opt->boundary_margin * sqrt(4 * opt->feature_scale * opt->tau);
@@ -206,13 +201,91 @@ static phks_status taper_at_boundary(const phks_mesh *mesh,
     if (!d)
         return phks__fail_oom("boundary taper");
     /* Beyond 6 m the taper differs from 1 by less than e^-36. */
-    phks_status st = phks__boundary_distance(mesh, scale, 6 * m, opt,
-                                            PHKS_STAGE_PERSISTENCE, SCALE_SPAN,
-                                            TAPER_SPAN - SCALE_SPAN, d);
+    phks__span at = {opt, PHKS_STAGE_PERSISTENCE, SCALE_SPAN,
+                     TAPER_SPAN - SCALE_SPAN};
+    phks_status st = phks__boundary_distance(um, 6 * m, at, d);
     for (size_t v = 0; st == PHKS_OK && v < mesh->vertex_count; v++)
         h[v] *= -expm1(-(d[v] / m) * (d[v] / m));
     phks__free(d);
     return st;
+}
+
+/* phks_signature_from_spectrum on resolved options and a checked
+ * spectrum. The unit box's scale and areas come from `given`, or, when it
+ * is NULL, are computed here where the taper or the local areas need
+ * them. */
+static phks_status from_spectrum(const phks_mesh *mesh,
+                                 const phks__unit_mesh *given,
+                                 const phks_spectrum *spec,
+                                 const phks_options *opt,
+                                 phks_signature **out)
+{
+    phks__unit_mesh own = {mesh, 1, NULL};
+    const phks__unit_mesh *um = given ? given : &own;
+    double from = 0;
+    size_t n = mesh->vertex_count, wanted = opt->feature_count;
+    if (wanted > mesh->triangle_count)
+        wanted = mesh->triangle_count;
+    double *h = phks__malloc_array(n, sizeof *h);
+    phks_maximum *maxima = NULL;
+    phks_signature *sig = NULL;
+    size_t found = 0;
+    phks_status st;
+    if (!h) {
+        st = phks__fail_oom("signature");
+        goto done;
+    }
+    double t_feature = opt->feature_scale * opt->tau;
+    st = phks__hks_all(spec, t_feature, opt, h);
+    double factor = hks_factor(spec, opt, t_feature);
+    for (size_t v = 0; v < n; v++)
+        h[v] *= factor;
+    if (st == PHKS_OK)
+        st = phks__progress(opt, PHKS_STAGE_PERSISTENCE, 0);
+    if (st == PHKS_OK && !given &&
+        (tapers(mesh, opt) || opt->hks_scaling == PHKS_HKS_SCALING_LOCAL_AREA)) {
+        phks__span at = {opt, PHKS_STAGE_PERSISTENCE, 0, SCALE_SPAN};
+        st = phks__unit_mesh_init(mesh, (phks_box)opt->box, at, &own);
+        from = SCALE_SPAN;
+    }
+    if (st == PHKS_OK)
+        st = taper_at_boundary(um, opt, h);
+    maxima = st == PHKS_OK ? phks__malloc_array(wanted, sizeof *maxima) : NULL;
+    if (st == PHKS_OK && !maxima)
+        st = phks__fail_oom("feature points");
+    /* The persistence up to 0.95, the feature vectors after. */
+    if (tapers(mesh, opt))
+        from = TAPER_SPAN;
+    phks__span at = {opt, PHKS_STAGE_PERSISTENCE, from, 0.95 - from};
+    if (st == PHKS_OK)
+        st = phks__persistence_run(mesh, h, wanted, 0, at, maxima, &found,
+                                   NULL);
+    if (st == PHKS_OK)
+        st = phks__signature_alloc(found, opt->scale_count, &sig);
+    if (st != PHKS_OK)
+        goto done;
+    sig->options = *opt;
+    sig->options.progress = NULL;
+    sig->options.progress_user = NULL;
+    for (size_t i = 0; i < found; i++) {
+        uint32_t v = maxima[i].vertex;
+        sig->vertex[i] = v;
+        memcpy(sig->position + 3 * i, mesh->xyz + 3 * (size_t)v, 3 * sizeof(double));
+        sig->persistence[i] = maxima[i].persistence;
+    }
+    st = feature_vectors(um, spec, opt, sig);
+    if (st == PHKS_OK)
+        st = phks__progress(opt, PHKS_STAGE_PERSISTENCE, 1);
+done:
+    phks__unit_mesh_release(&own);
+    phks__free(h);
+    phks__free(maxima);
+    if (st != PHKS_OK) {
+        phks_signature_free(sig);
+        return st;
+    }
+    *out = sig;
+    return PHKS_OK;
 }
 
 phks_status phks_signature_from_spectrum(const phks_mesh *mesh,
@@ -233,67 +306,7 @@ phks_status phks_signature_from_spectrum(const phks_mesh *mesh,
         st = phks__progress(&opt, PHKS_STAGE_HKS, 0);
     if (st != PHKS_OK)
         return st;
-
-    size_t n = mesh->vertex_count, wanted = opt.feature_count;
-    if (wanted > mesh->triangle_count)
-        wanted = mesh->triangle_count;
-    double *h = phks__malloc_array(n, sizeof *h);
-    phks_maximum *maxima = NULL;
-    phks_signature *sig = NULL;
-    size_t found = 0;
-    if (!h) {
-        st = phks__fail_oom("signature");
-        goto done;
-    }
-    double t_feature = opt.feature_scale * opt.tau;
-    st = phks__hks_all(spec, t_feature, &opt, h);
-    double factor = hks_factor(spec, &opt, t_feature);
-    for (size_t v = 0; v < n; v++)
-        h[v] *= factor;
-    if (st == PHKS_OK)
-        st = phks__progress(&opt, PHKS_STAGE_PERSISTENCE, 0);
-    bool scaled = tapers(mesh, &opt) ||
-                  opt.hks_scaling == PHKS_HKS_SCALING_LOCAL_AREA;
-    double scale = 1;
-    if (st == PHKS_OK && scaled)
-        st = phks__unit_box_scale_progress(mesh, (phks_box)opt.box, &opt,
-                                          PHKS_STAGE_PERSISTENCE, 0,
-                                          SCALE_SPAN, &scale);
-    if (st == PHKS_OK)
-        st = taper_at_boundary(mesh, &opt, scale, h);
-    maxima = st == PHKS_OK ? phks__malloc_array(wanted, sizeof *maxima) : NULL;
-    if (st == PHKS_OK && !maxima)
-        st = phks__fail_oom("feature points");
-    /* The persistence up to 0.95, the feature vectors after. */
-    double from = tapers(mesh, &opt) ? TAPER_SPAN : scaled ? SCALE_SPAN : 0;
-    if (st == PHKS_OK)
-        st = phks__persistence_run(mesh, h, wanted, 0, maxima, &found, NULL,
-                                  &opt, from, 0.95 - from);
-    if (st == PHKS_OK)
-        st = phks__signature_alloc(found, opt.scale_count, &sig);
-    if (st != PHKS_OK)
-        goto done;
-    sig->options = opt;
-    sig->options.progress = NULL;
-    sig->options.progress_user = NULL;
-    for (size_t i = 0; i < found; i++) {
-        uint32_t v = maxima[i].vertex;
-        sig->vertex[i] = v;
-        memcpy(sig->position + 3 * i, mesh->xyz + 3 * (size_t)v, 3 * sizeof(double));
-        sig->persistence[i] = maxima[i].persistence;
-    }
-    st = feature_vectors(mesh, spec, &opt, scale, sig);
-    if (st == PHKS_OK)
-        st = phks__progress(&opt, PHKS_STAGE_PERSISTENCE, 1);
-done:
-    phks__free(h);
-    phks__free(maxima);
-    if (st != PHKS_OK) {
-        phks_signature_free(sig);
-        return st;
-    }
-    *out = sig;
-    return PHKS_OK;
+    return from_spectrum(mesh, NULL, spec, &opt, out);
 }
 
 phks_status phks_signature_compute(const phks_mesh *mesh,
@@ -305,11 +318,27 @@ phks_status phks_signature_compute(const phks_mesh *mesh,
     if (!mesh || !out)
         return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "phks_signature_compute: NULL argument");
+    phks_options opt;
+    phks_status st = phks__options_resolve(options, &opt);
+    if (st != PHKS_OK)
+        return st;
+    /* The unit box and the areas once, for the operator, the taper and
+     * the local areas alike. */
+    phks__unit_mesh um;
     phks_spectrum *spec = NULL;
-    phks_status st = phks_spectrum_compute(mesh, options, &spec);
+    phks__span at = {&opt, PHKS_STAGE_OPERATOR, 0, PHKS__UNIT_MESH_SPAN};
+    st = phks__progress(&opt, PHKS_STAGE_OPERATOR, 0);
     if (st == PHKS_OK)
-        st = phks_signature_from_spectrum(mesh, spec, options, out);
+        st = phks__unit_mesh_init(mesh, (phks_box)opt.box, at, &um);
+    if (st != PHKS_OK)
+        return st;
+    st = phks__spectrum_compute(&um, &opt, &spec);
+    if (st == PHKS_OK)
+        st = phks__progress(&opt, PHKS_STAGE_HKS, 0);
+    if (st == PHKS_OK)
+        st = from_spectrum(mesh, &um, spec, &opt, out);
     phks_spectrum_free(spec);
+    phks__unit_mesh_release(&um);
     return st;
 }
 

@@ -105,11 +105,11 @@ static void distance_rows(void *ctx, size_t begin, size_t end)
  * when the boundary is near, more where its reach is wide. */
 #define BATCH 16384
 
-phks_status phks__boundary_distance(const phks_mesh *mesh, double scale,
-                                   double cap, const phks_options *opt,
-                                   phks_stage stage, double done, double span,
-                                   double *distance)
+phks_status phks__boundary_distance(const phks__unit_mesh *um, double cap,
+                                    phks__span at, double *distance)
 {
+    const phks_mesh *mesh = um->mesh;
+    const double scale = um->scale;
     size_t n = mesh->vertex_count;
     for (size_t v = 0; v < n; v++)
         distance[v] = cap;
@@ -127,9 +127,8 @@ phks_status phks__boundary_distance(const phks_mesh *mesh, double scale,
     if (st == PHKS_OK) {
         distance_ctx c = {mesh, &grid, points, scale, cap, distance};
         /* Each vertex's distance is its own: any split gives the same. */
-        st = phks__run_batched(n, opt ? phks__thread_count(opt) : 1,
-                              distance_rows, &c, opt, stage, done, span,
-                              (n + BATCH - 1) / BATCH);
+        st = phks__run_batched(n, at.opt ? phks__thread_count(at.opt) : 1,
+                               distance_rows, &c, at, (n + BATCH - 1) / BATCH);
     }
     phks__grid_release(&grid);
     phks__free(points);

@@ -41,20 +41,42 @@ phks_status phks__mesh_build(const double *xyz, size_t vertex_count,
                             const uint32_t *triangles, size_t triangle_count,
                             const uint32_t *vertex_origin, phks_mesh **out);
 
-/* ---- normalisation (normalize.c) */
-/* Scale factor s such that s * positions fit the unit box of `box`. */
+/* ---- the unit box and areas (unit_box.c, local_area.c, sym3_eigen.c) */
+/* Scale factor s such that s * positions fit the unit box of `box`.
+ * Progress through `at` every 2^18 triangles or vertices; returns
+ * PHKS_ERROR_CANCELLED when the callback asks. */
 phks_status phks__unit_box_scale(const phks_mesh *mesh, phks_box box,
-                                double *scale);
+                                 phks__span at, double *scale);
 /* Per-vertex area: a third of the area of the incident triangles, for
- * positions scaled by `scale`. mass has vertex_count entries. */
-void phks__vertex_areas(const phks_mesh *mesh, double scale, double *mass);
+ * positions scaled by `scale`. mass has vertex_count entries. Progress as
+ * phks__unit_box_scale's. */
+phks_status phks__vertex_areas(const phks_mesh *mesh, double scale,
+                               phks__span at, double *mass);
+
+/* A mesh as the pipeline sees it: positions times `scale` fit the unit box,
+ * and `area` (vertex_count, owned) holds the vertex areas at that scale.
+ * Computed once, at the top of a computation, and handed down with the
+ * input coordinates: every layer multiplies by the same scale as the
+ * operator always did, so a pre-scaled copy (which would round
+ * differently) is never made. */
+typedef struct phks__unit_mesh {
+    const phks_mesh *mesh;
+    double scale;
+    double *area;
+} phks__unit_mesh;
+
+/* The box's scale in the first two thirds of `at`, the areas in the last
+ * third. On failure nothing is left to release. */
+phks_status phks__unit_mesh_init(const phks_mesh *mesh, phks_box box,
+                                 phks__span at, phks__unit_mesh *out);
+void phks__unit_mesh_release(phks__unit_mesh *u);
+
 /* area[s] = the area (vertex_area summed) of the vertices within
- * straight-line distance sqrt(radius2[s]) of `vertex`, positions scaled by
- * `scale`: what PHKS_HKS_SCALING_LOCAL_AREA multiplies HKS by
+ * straight-line distance sqrt(radius2[s]) of `vertex`, in the unit box of
+ * um: what PHKS_HKS_SCALING_LOCAL_AREA multiplies HKS by
  * (local_area.c). The radii in any order. */
-void phks__local_areas(const phks_mesh *mesh, double scale,
-                      const double *vertex_area, uint32_t vertex,
-                      const double *radius2, size_t count, double *area);
+void phks__local_areas(const phks__unit_mesh *um, uint32_t vertex,
+                       const double *radius2, size_t count, double *area);
 /* Eigen-decomposition of the symmetric 3 x 3 matrix (row-major; its upper
  * triangle is read) by cyclic Jacobi, in the layout of LAPACK's row-major
  * dsyev: values ascending, vectors[3 * i + j] component i of the unit
@@ -64,20 +86,6 @@ void phks__local_areas(const phks_mesh *mesh, double scale,
  * every run, whatever the BLAS threads; finite input assumed. */
 void phks__sym3_eigen(const double matrix[9], double values[3],
                      double vectors[9]);
-/* The same with progress in `stage` from done to done + span through opt
- * (NULL: none), every 2^18 triangles or vertices (a tenth of a second for
- * a million vertices takes a few reports); they return
- * PHKS_ERROR_CANCELLED when the callback asks. The numbers are the
- * same. */
-phks_status phks__unit_box_scale_progress(const phks_mesh *mesh, phks_box box,
-                                         const phks_options *opt,
-                                         phks_stage stage, double done,
-                                         double span, double *scale);
-phks_status phks__vertex_areas_progress(const phks_mesh *mesh, double scale,
-                                       const phks_options *opt,
-                                       phks_stage stage, double done,
-                                       double span, double *mass);
-
 /* ---- spatial grid (grid.c) */
 typedef struct phks__grid {
     double origin[3];
@@ -101,15 +109,12 @@ size_t phks__grid_neighbourhood(const phks__grid *grid, const size_t c[3],
 
 /* ---- boundary proximity (boundary.c) */
 /* distance[v] = straight-line distance from vertex v to the nearest vertex
- * on a boundary edge, positions scaled by scale, capped at cap (cap > 0;
- * all cap on a closed mesh). Runs on phks__thread_count(opt) threads (the
- * distances do not depend on it) and reports progress in `stage` from
- * done to done + span through opt (NULL: one thread, no reports) between
- * batches of vertices; returns PHKS_ERROR_CANCELLED when the callback
- * asks. */
-phks_status phks__boundary_distance(const phks_mesh *mesh, double scale,
-                                   double cap, const phks_options *opt,
-                                   phks_stage stage, double done, double span,
-                                   double *distance);
+ * on a boundary edge, in the unit box of um, capped at cap (cap > 0; all
+ * cap on a closed mesh). Runs on phks__thread_count(at.opt) threads (the
+ * distances do not depend on it; at.opt NULL: one) and reports progress
+ * through `at` between batches of vertices; returns PHKS_ERROR_CANCELLED
+ * when the callback asks. */
+phks_status phks__boundary_distance(const phks__unit_mesh *um, double cap,
+                                    phks__span at, double *distance);
 
 #endif /* PHKS_GEOMETRY_H */

@@ -16,10 +16,11 @@
  */
 #include "geometry/geometry.h"
 
-void phks__local_areas(const phks_mesh *mesh, double scale,
-                      const double *vertex_area, uint32_t vertex,
-                      const double *radius2, size_t count, double *area)
+void phks__local_areas(const phks__unit_mesh *um, uint32_t vertex,
+                       const double *radius2, size_t count, double *area)
 {
+    const phks_mesh *mesh = um->mesh;
+    const double scale = um->scale, *vertex_area = um->area;
     const double *x = mesh->xyz + 3 * (size_t)vertex;
     for (size_t s = 0; s < count; s++)
         area[s] = 0;

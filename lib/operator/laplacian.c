@@ -301,12 +301,15 @@ static phks_status morton_order(const double *xyz, size_t n,
     return PHKS_OK;
 }
 
-phks_status phks__point_operator_build(const double *xyz, size_t n,
-                                      double scale, const double *area,
-                                      const double *gain,
-                                      const phks_options *opt, double done,
-                                      double span, phks__operator_matrix *op)
+phks_status phks__operator_build_points(const phks__points *points,
+                                        const phks_options *opt,
+                                        phks__span at,
+                                        phks__operator_matrix *op)
 {
+    const double *xyz = points->xyz, *area = points->area;
+    const double *gain = points->gain;
+    const size_t n = points->n;
+    const double scale = points->scale;
     memset(op, 0, sizeof *op);
     double h = opt->tau, radius = opt->cutoff * sqrt(4 * h);
     double *density = phks__malloc_array(n, sizeof *density), *sorted = NULL;
@@ -340,8 +343,8 @@ phks_status phks__point_operator_build(const double *xyz, size_t n,
                    op->row_start, NULL, NULL, density, false,
                    phks__cpu_avx2()};
     unsigned threads = phks__thread_count(opt);
-    st = phks__run_batched(n, threads, scan_rows, &b, opt, PHKS_STAGE_OPERATOR,
-                          done, 0.3 * span, ROW_BATCHES);
+    st = phks__run_batched(n, threads, scan_rows, &b,
+                           phks__span_part(at, 0, 0.3), ROW_BATCHES);
     if (st != PHKS_OK)
         goto done;
     for (size_t w = 0; w < n; w++)
@@ -356,8 +359,8 @@ phks_status phks__point_operator_build(const double *xyz, size_t n,
     b.col = op->col;
     b.val = op->val;
     b.fill = true;
-    st = phks__run_batched(n, threads, scan_rows, &b, opt, PHKS_STAGE_OPERATOR,
-                          done + 0.3 * span, 0.7 * span, ROW_BATCHES);
+    st = phks__run_batched(n, threads, scan_rows, &b,
+                           phks__span_part(at, 0.3, 1), ROW_BATCHES);
     if (st != PHKS_OK)
         goto done;
 
@@ -373,7 +376,7 @@ phks_status phks__point_operator_build(const double *xyz, size_t n,
         op->norm_bound = fmax(op->norm_bound, sorted[w]);
     st = morton_order(xyz, n, op);
     if (st == PHKS_OK)
-        st = phks__progress(opt, PHKS_STAGE_OPERATOR, done + span);
+        st = phks__span_report(at, 1);
 done:
     phks__grid_release(&grid);
     phks__free(density);
@@ -383,26 +386,13 @@ done:
     return st;
 }
 
-phks_status phks__operator_build(const phks_mesh *mesh, const phks_options *opt,
-                                phks__operator_matrix *op)
+phks_status phks__operator_build(const phks__unit_mesh *um,
+                                 const phks_options *opt, phks__span at,
+                                 phks__operator_matrix *op)
 {
-    memset(op, 0, sizeof *op);
-    size_t n = mesh->vertex_count;
-    double scale;
-    phks_status st = phks__unit_box_scale_progress(
-        mesh, (phks_box)opt->box, opt, PHKS_STAGE_OPERATOR, 0, 0, &scale);
-    if (st != PHKS_OK)
-        return st;
-    double *area = phks__malloc_array(n, sizeof *area);
-    if (!area)
-        return phks__fail_oom("operator");
-    st = phks__vertex_areas_progress(mesh, scale, opt, PHKS_STAGE_OPERATOR, 0,
-                                    0, area);
-    if (st == PHKS_OK)
-        st = phks__point_operator_build(mesh->xyz, n, scale, area, NULL, opt, 0,
-                                       1, op);
-    phks__free(area);
-    return st;
+    phks__points points = {um->mesh->xyz, um->mesh->vertex_count, um->scale,
+                           um->area, NULL};
+    return phks__operator_build_points(&points, opt, at, op);
 }
 
 void phks__operator_release(phks__operator_matrix *op)

@@ -23,19 +23,28 @@ typedef struct phks__operator_matrix {
                             (n entries; NULL: no locality order known)  */
 } phks__operator_matrix;
 
-phks_status phks__operator_build(const phks_mesh *mesh, const phks_options *opt,
-                                phks__operator_matrix *op);
+/* The points an operator is built on: n positions (3 each, multiplied by
+ * scale), their masses area[] (unit-box units), and, when gain is not
+ * NULL, kernel gains: K_pq is multiplied by sqrt(gain_p gain_q). */
+typedef struct phks__points {
+    const double *xyz;
+    size_t n;
+    double scale;
+    const double *area;
+    const double *gain;
+} phks__points;
+
+/* The operator of a mesh: its vertices with their areas. Progress in `at`
+ * (the final report, at its end, included). */
+phks_status phks__operator_build(const phks__unit_mesh *um,
+                                 const phks_options *opt, phks__span at,
+                                 phks__operator_matrix *op);
+/* The same for any points (HKS-simp's samples). */
+phks_status phks__operator_build_points(const phks__points *points,
+                                        const phks_options *opt,
+                                        phks__span at,
+                                        phks__operator_matrix *op);
 void phks__operator_release(phks__operator_matrix *op);
-/* The matrix phks__operator_build makes for a mesh, for points at xyz
- * (3 per point, multiplied by scale) with masses area[] in place of the
- * vertex areas, and K_pq multiplied by sqrt(gain_p gain_q) when gain is
- * not NULL. Progress in PHKS_STAGE_OPERATOR from done to done + span (the
- * final report, at done + span, included). */
-phks_status phks__point_operator_build(const double *xyz, size_t n,
-                                      double scale, const double *area,
-                                      const double *gain,
-                                      const phks_options *opt, double done,
-                                      double span, phks__operator_matrix *op);
 /* Y = B X for a block of k vectors stored row-major (X[i*k + j] is entry i
  * of vector j), using `threads` workers. */
 void phks__operator_apply(const phks__operator_matrix *op, const double *x,

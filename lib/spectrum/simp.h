@@ -41,20 +41,27 @@ typedef struct phks__samples {
 /* Chooses about opt->simplify_target samples of mesh (positions scaled by
  * scale, vertex_area as phks__vertex_areas gives). Progress is reported in
  * PHKS_STAGE_OPERATOR from `done` to done + span. */
-phks_status phks__simplify(const phks_mesh *mesh, double scale,
-                          const double *vertex_area, const phks_options *opt,
-                          double done, double span, phks__samples *out);
+phks_status phks__simplify(const phks__unit_mesh *um, const phks_options *opt,
+                           phks__span at, phks__samples *out);
 void phks__samples_release(phks__samples *samples);
+
+/* Points with masses and the kernel they are summed with: W(p, q) =
+ * exp(-|p - q|^2 / (4 h)), cut off at `radius`. */
+typedef struct phks__kernel_points {
+    const double *xyz;  /* 3 per point */
+    const double *area; /* the masses  */
+    size_t n;
+    double h, radius;
+} phks__kernel_points;
 
 /* The short-time heat diagonal of appendix B on a weighted point set: for
  * point i, (H^2)_ii / A_i with H = I - tau D^-1 L the one-step heat
  * operator of the points (xyz, 3 per point, unit-box units; area A). Kept
  * separate so tests can check it against a dense H. Points within radius
  * interact. */
-phks_status phks__heat_diagonal(const double *xyz, const double *area,
-                               size_t n, double h, double radius,
-                               const phks_options *opt, double done,
-                               double span, double *out);
+phks_status phks__heat_diagonal(const phks__kernel_points *points,
+                                const phks_options *opt, phks__span at,
+                                double *out);
 
 /* ---- extension to every vertex (extend.c) */
 struct phks__extension {
@@ -77,9 +84,9 @@ struct phks__extension {
  * of mass (m entries); keeps copies of the positions and a sample-major
  * copy of spec->vectors (spec->count and the m x count vectors set).
  * On failure everything handed over is freed. */
-phks_status phks__extension_create(phks_spectrum *spec, const phks_mesh *mesh,
-                                  double scale, phks__samples *samples,
-                                  double *mass);
+phks_status phks__extension_create(phks_spectrum *spec,
+                                   const phks__unit_mesh *um,
+                                   phks__samples *samples, double *mass);
 void phks__extension_free(struct phks__extension *ext);
 
 /* HKS_t at mesh vertex v through the extension, in double precision. */

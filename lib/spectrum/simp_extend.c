@@ -77,10 +77,12 @@ void phks__extension_free(struct phks__extension *ext)
     phks__free(ext);
 }
 
-phks_status phks__extension_create(phks_spectrum *spec, const phks_mesh *mesh,
-                                  double scale, phks__samples *samples,
-                                  double *mass)
+phks_status phks__extension_create(phks_spectrum *spec,
+                                   const phks__unit_mesh *um,
+                                   phks__samples *samples, double *mass)
 {
+    const phks_mesh *mesh = um->mesh;
+    const double scale = um->scale;
     struct phks__extension *ext = phks__calloc(1, sizeof *ext);
     if (!ext) {
         phks__free(mass);
@@ -531,9 +533,9 @@ phks_status phks__extend_hks(const phks_spectrum *spec, double t,
         }
         bulk_ctx b = {spec, &cells, work, rows, stride, decay, mu, out, 0};
         size_t batches = 1 + n / BATCH_VERTICES;
-        st = phks__run_batched(total, threads, extend_cells, &b, opt,
-                              PHKS_STAGE_HKS, 0, 1,
-                              batches < total ? batches : total);
+        phks__span at = {opt, PHKS_STAGE_HKS, 0, 1};
+        st = phks__run_batched(total, threads, extend_cells, &b, at,
+                               batches < total ? batches : total);
         if (st == PHKS_OK && atomic_load(&b.failed))
             st = phks__fail_oom("HKS extension");
     }

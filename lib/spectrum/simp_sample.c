@@ -427,11 +427,13 @@ static void heat_rows(void *ctx, size_t begin, size_t end)
     }
 }
 
-phks_status phks__heat_diagonal(const double *xyz, const double *area, size_t n,
-                               double h, double radius,
-                               const phks_options *opt, double done,
-                               double span, double *out)
+phks_status phks__heat_diagonal(const phks__kernel_points *points,
+                                const phks_options *opt, phks__span at,
+                                double *out)
 {
+    const double *xyz = points->xyz, *area = points->area;
+    const size_t n = points->n;
+    const double h = points->h, radius = points->radius;
     kernel_points kp;
     phks_status st = kernel_points_build(xyz, n, h, radius, &kp);
     if (st != PHKS_OK)
@@ -446,17 +448,17 @@ phks_status phks__heat_diagonal(const double *xyz, const double *area, size_t n,
     /* Slots in grid order: neighbouring points are visited together. */
     to_grid_order(&kp, area, coef);
     heat_ctx ctx = {&kp, xyz, coef, density, NULL};
-    unsigned threads = phks__thread_count(opt);
-    st = phks__run_batched(n, threads, heat_rows, &ctx, opt, PHKS_STAGE_OPERATOR,
-                          done, span / 2, BATCHES);
+    unsigned threads = opt ? phks__thread_count(opt) : 1;
+    st = phks__run_batched(n, threads, heat_rows, &ctx,
+                           phks__span_part(at, 0, 0.5), BATCHES);
     if (st != PHKS_OK)
         goto done;
     for (size_t s = 0; s < n; s++)
         coef[s] /= density[s];
     ctx.out = heat;
     ctx.density = density;
-    st = phks__run_batched(n, threads, heat_rows, &ctx, opt, PHKS_STAGE_OPERATOR,
-                          done + span / 2, span / 2, BATCHES);
+    st = phks__run_batched(n, threads, heat_rows, &ctx,
+                           phks__span_part(at, 0.5, 1), BATCHES);
     if (st != PHKS_OK)
         goto done;
     for (size_t s = 0; s < n; s++)
@@ -692,8 +694,7 @@ static int by_pinned_vertex(const void *pa, const void *pb)
 
 /* of_vertex for the samples out->vertex (positions from xyz). */
 static phks_status assign(const double *xyz, size_t n, phks__samples *out,
-                          double rho, const phks_options *opt,
-                          unsigned threads, double done, double span)
+                          double rho, unsigned threads, phks__span at)
 {
     size_t m = out->count;
     double *sample_xyz = phks__malloc_array(m, 3 * sizeof *sample_xyz);
@@ -706,8 +707,7 @@ static phks_status assign(const double *xyz, size_t n, phks__samples *out,
     phks_status st = phks__grid_build(sample_xyz, m, 1, rho, &grid);
     if (st == PHKS_OK) {
         nearest_ctx nc = {&grid, sample_xyz, xyz, out->of_vertex};
-        st = phks__run_batched(n, threads, nearest_rows, &nc, opt,
-                              PHKS_STAGE_OPERATOR, done, span, BATCHES);
+        st = phks__run_batched(n, threads, nearest_rows, &nc, at, BATCHES);
     }
     phks__grid_release(&grid);
     phks__free(sample_xyz);
@@ -770,16 +770,17 @@ static void density_rows(void *ctx, size_t begin, size_t end)
                     dc->out2 ? dc->out2 + i : NULL);
 }
 
-/* At each of the n_at points `at`: the kernel sums over `points` (count,
- * with masses) of W and of W d^2, the density and the second moment. */
-static phks_status densities(const double *points, const double *mass,
-                             size_t count, const double *at, size_t n_at,
-                             double h, double radius, unsigned threads,
-                             const phks_options *opt, double done, double span,
-                             double *out0, double *out2)
+/* At each of the n_at points `at`: the kernel sums over `points` (with
+ * their masses) of W and of W d^2, the density and the second moment. */
+static phks_status densities(const phks__kernel_points *points,
+                             const double *at, size_t n_at, unsigned threads,
+                             phks__span progress, double *out0, double *out2)
 {
+    const double *mass = points->area;
+    const size_t count = points->n;
     kernel_points kp;
-    phks_status st = kernel_points_build(points, count, h, radius, &kp);
+    phks_status st = kernel_points_build(points->xyz, count, points->h,
+                                         points->radius, &kp);
     if (st != PHKS_OK)
         return st;
     double *coef = phks__malloc_array(count, sizeof *coef);
@@ -789,11 +790,8 @@ static phks_status densities(const double *points, const double *mass,
     }
     to_grid_order(&kp, mass, coef);
     density_ctx dc = {&kp, coef, at, out0, out2};
-    if (opt)
-        st = phks__run_batched(n_at, threads, density_rows, &dc, opt,
-                              PHKS_STAGE_OPERATOR, done, span, BATCHES);
-    else
-        phks__parallel_for(n_at, threads, density_rows, &dc);
+    st = phks__run_batched(n_at, threads, density_rows, &dc, progress,
+                           BATCHES);
     kernel_points_release(&kp);
     phks__free(coef);
     return st;
@@ -815,32 +813,34 @@ static phks_status densities(const double *points, const double *mass,
  *   eigenvalues too low). gain_p = mesh moment / samples' moment, and the
  *   samples' operator uses kernel entries K_pq sqrt(gain_p gain_q). */
 static phks_status match_density(const double *xyz, const candidates *ref,
-                                 phks__samples *out, double h, double radius,
-                                 double total, unsigned threads,
-                                 const phks_options *opt, double done,
-                                 double span)
+                                 phks__samples *out, double total,
+                                 const phks_options *opt, phks__span at)
 {
+    const double h = opt->tau, radius = opt->cutoff * sqrt(4 * h);
+    const unsigned threads = phks__thread_count(opt);
     size_t m = out->count;
-    double *at = phks__malloc_array(m, 3 * sizeof *at);
+    double *sample_at = phks__malloc_array(m, 3 * sizeof *sample_at);
     double *want0 = phks__malloc_array(m, sizeof *want0);
     double *want2 = phks__malloc_array(m, sizeof *want2);
     double *have = phks__malloc_array(m, sizeof *have);
     out->gain = phks__malloc_array(m, sizeof *out->gain);
     phks_status st = PHKS_OK;
-    if (!at || !want0 || !want2 || !have || !out->gain)
+    if (!sample_at || !want0 || !want2 || !have || !out->gain)
         st = phks__fail_oom("simplification: masses");
     if (st == PHKS_OK) {
         for (size_t s = 0; s < m; s++)
-            memcpy(at + 3 * s, xyz + 3 * (size_t)out->vertex[s], 3 * sizeof(double));
-        st = densities(ref->xyz, ref->area, ref->count, at, m, h, radius,
-                       threads, opt, done, span / 2, want0, want2);
+            memcpy(sample_at + 3 * s, xyz + 3 * (size_t)out->vertex[s], 3 * sizeof(double));
+        phks__kernel_points mesh_points = {ref->xyz, ref->area, ref->count, h,
+                                           radius};
+        st = densities(&mesh_points, sample_at, m, threads,
+                       phks__span_part(at, 0, 0.5), want0, want2);
     }
+    phks__kernel_points samples = {sample_at, out->area, m, h, radius};
     for (int round = 0; st == PHKS_OK && round < DENSITY_ROUNDS; round++) {
-        st = phks__progress(opt, PHKS_STAGE_OPERATOR,
-                           done + span / 2 + span / 2 * round / DENSITY_ROUNDS);
+        st = phks__span_report(at, 0.5 + 0.5 * round / DENSITY_ROUNDS);
         if (st == PHKS_OK)
-            st = densities(at, out->area, m, at, m, h, radius, threads, NULL, 0,
-                           0, have, NULL);
+            st = densities(&samples, sample_at, m, threads, PHKS__SPAN_NONE,
+                           have, NULL);
         for (size_t s = 0; st == PHKS_OK && s < m; s++)
             out->area[s] *= pow(want0[s] / have[s], DENSITY_OMEGA);
     }
@@ -850,8 +850,8 @@ static phks_status match_density(const double *xyz, const candidates *ref,
             sum += out->area[s];
         for (size_t s = 0; s < m; s++)
             out->area[s] *= total / sum;
-        st = densities(at, out->area, m, at, m, h, radius, threads, NULL, 0, 0,
-                       want0, have);
+        st = densities(&samples, sample_at, m, threads, PHKS__SPAN_NONE, want0,
+                       have);
     }
     /* A sample with no other sample within the cut-off (a target too
      * small for the kernel, or a speck of a component) has no second
@@ -863,7 +863,7 @@ static phks_status match_density(const double *xyz, const candidates *ref,
                        : gain > 4                    ? 4
                                                      : gain;
     }
-    phks__free(at);
+    phks__free(sample_at);
     phks__free(want0);
     phks__free(want2);
     phks__free(have);
@@ -874,10 +874,11 @@ static phks_status match_density(const double *xyz, const candidates *ref,
  * The whole step
  * --------------------------------------------------------------------- */
 
-phks_status phks__simplify(const phks_mesh *mesh, double scale,
-                          const double *vertex_area, const phks_options *opt,
-                          double done, double span, phks__samples *out)
+phks_status phks__simplify(const phks__unit_mesh *um, const phks_options *opt,
+                           phks__span at, phks__samples *out)
 {
+    const phks_mesh *mesh = um->mesh;
+    const double scale = um->scale, *vertex_area = um->area;
     memset(out, 0, sizeof *out);
     size_t n = mesh->vertex_count, target = opt->simplify_target;
     double total = 0;
@@ -898,7 +899,7 @@ phks_status phks__simplify(const phks_mesh *mesh, double scale,
     if (st == PHKS_OK) {
         for (size_t i = 0; i < 3 * n; i++)
             xyz[i] = mesh->xyz[i] * scale;
-        st = phks__progress(opt, PHKS_STAGE_OPERATOR, done);
+        st = phks__span_report(at, 0);
     }
     /* A surface of area S occupies about 1.5 S / eps^2 cells of edge eps
      * (the mean of |n_x| + |n_y| + |n_z| over directions n is 1.5). */
@@ -911,11 +912,14 @@ phks_status phks__simplify(const phks_mesh *mesh, double scale,
         if (!heat || !keep)
             st = phks__fail_oom("simplification");
     }
+    if (st == PHKS_OK) {
+        phks__kernel_points candidate_points = {c.xyz, c.area, c.count, h,
+                                                cut * width};
+        st = phks__heat_diagonal(&candidate_points, opt,
+                                 phks__span_part(at, 0.05, 0.45), heat);
+    }
     if (st == PHKS_OK)
-        st = phks__heat_diagonal(c.xyz, c.area, c.count, h, cut * width, opt,
-                                done + 0.05 * span, 0.4 * span, heat);
-    if (st == PHKS_OK)
-        st = phks__progress(opt, PHKS_STAGE_OPERATOR, done + 0.45 * span);
+        st = phks__span_report(at, 0.45);
     if (st == PHKS_OK)
         st = choose_samples(&c, heat, &rho, target, keep);
     if (st == PHKS_OK)
@@ -943,22 +947,23 @@ phks_status phks__simplify(const phks_mesh *mesh, double scale,
         qsort(chosen, m, sizeof *chosen, by_pinned_vertex);
         for (size_t i = 0; i < m; i++)
             out->vertex[i] = chosen[i].vertex;
-        double step = 0.25 * span / (RELAX_ROUNDS + 1);
-        st = assign(xyz, n, out, rho, opt, threads,
-                    done + 0.5 * span + round * step, step);
+        double step = 0.25 / (RELAX_ROUNDS + 1);
+        st = assign(xyz, n, out, rho, threads,
+                    phks__span_part(at, 0.5 + round * step,
+                                    0.5 + (round + 1) * step));
         if (st == PHKS_OK && round < RELAX_ROUNDS)
             st = relax(xyz, vertex_area, n, out, chosen);
     }
     if (st == PHKS_OK) {
         for (size_t v = 0; v < n; v++)
             out->area[out->of_vertex[v]] += vertex_area[v];
-        st = phks__progress(opt, PHKS_STAGE_OPERATOR, done + 0.75 * span);
+        st = phks__span_report(at, 0.75);
     }
     if (st == PHKS_OK)
         st = make_candidates(xyz, n, vertex_area, REFERENCE_CELL * width, &ref);
     if (st == PHKS_OK)
-        st = match_density(xyz, &ref, out, h, opt->cutoff * width, total,
-                           threads, opt, done + 0.8 * span, 0.2 * span);
+        st = match_density(xyz, &ref, out, total, opt,
+                           phks__span_part(at, 0.8, 1));
 
     phks__free(chosen);
     phks__free(xyz);

@@ -85,29 +85,19 @@ static phks_status finish_vectors(phks_spectrum *spec, size_t n,
 /* HKS-simp: samples, their operator and eigenpairs, and the extension
  * data. Progress: the sampling and the samples' operator are the operator
  * stage (the sampling takes most of it on a large mesh). */
-static phks_status compute_simplified(const phks_mesh *mesh,
+static phks_status compute_simplified(const phks__unit_mesh *um,
                                       const phks_options *opt,
                                       phks_spectrum *spec)
 {
+    const phks_mesh *mesh = um->mesh;
+    const double *area = um->area;
     size_t n = mesh->vertex_count;
-    double scale;
     phks__samples samples = {0};
     phks__operator_matrix op = {0};
     double *sample_xyz = NULL, *sample_mass = NULL;
-    double *area = phks__malloc_array(n, sizeof *area);
-    phks_status st = area ? PHKS_OK : phks__fail_oom("spectrum");
-    /* The unit box and the areas: three passes over the triangles, a
-     * few tenths of a second on a million vertices. */
-    if (st == PHKS_OK)
-        st = phks__progress(opt, PHKS_STAGE_OPERATOR, 0);
-    if (st == PHKS_OK)
-        st = phks__unit_box_scale_progress(mesh, (phks_box)opt->box, opt,
-                                          PHKS_STAGE_OPERATOR, 0, 0.02, &scale);
-    if (st == PHKS_OK)
-        st = phks__vertex_areas_progress(mesh, scale, opt, PHKS_STAGE_OPERATOR,
-                                        0.02, 0.01, area);
-    if (st == PHKS_OK)
-        st = phks__simplify(mesh, scale, area, opt, 0.03, 0.82, &samples);
+    phks__span at = {opt, PHKS_STAGE_OPERATOR, PHKS__UNIT_MESH_SPAN,
+                     0.85 - PHKS__UNIT_MESH_SPAN};
+    phks_status st = phks__simplify(um, opt, at, &samples);
     size_t m = samples.count;
     if (st == PHKS_OK) {
         sample_xyz = phks__malloc_array(m, 3 * sizeof *sample_xyz);
@@ -118,8 +108,10 @@ static phks_status compute_simplified(const phks_mesh *mesh,
         for (size_t s = 0; s < m; s++)
             for (int d = 0; d < 3; d++)
                 sample_xyz[3 * s + d] = mesh->xyz[3 * (size_t)samples.vertex[s] + d];
-        st = phks__point_operator_build(sample_xyz, m, scale, samples.area,
-                                       samples.gain, opt, 0.85, 0.15, &op);
+        phks__points points = {sample_xyz, m, um->scale, samples.area,
+                               samples.gain};
+        phks__span op_at = {opt, PHKS_STAGE_OPERATOR, 0.85, 0.15};
+        st = phks__operator_build_points(&points, opt, op_at, &op);
     }
     if (st == PHKS_OK) {
         spec->count = opt->eigen_count < m ? opt->eigen_count : m;
@@ -141,12 +133,11 @@ static phks_status compute_simplified(const phks_mesh *mesh,
         st = solve(&op, spec->count, opt, spec->values, spec->vectors);
     }
     phks__operator_release(&op);
-    phks__free(area);
     phks__free(sample_xyz);
     if (st == PHKS_OK)
         st = finish_vectors(spec, m, sample_mass, opt);
     if (st == PHKS_OK) {
-        st = phks__extension_create(spec, mesh, scale, &samples, sample_mass);
+        st = phks__extension_create(spec, um, &samples, sample_mass);
         sample_mass = NULL; /* handed over, even on failure */
     }
     phks__free(sample_mass);
@@ -155,11 +146,13 @@ static phks_status compute_simplified(const phks_mesh *mesh,
 }
 
 /* The whole mesh's operator and its eigenpairs, into spec (n set). */
-static phks_status compute_exact(const phks_mesh *mesh, const phks_options *opt,
-                                 phks_spectrum *spec)
+static phks_status compute_exact(const phks__unit_mesh *um,
+                                 const phks_options *opt, phks_spectrum *spec)
 {
     phks__operator_matrix op;
-    phks_status st = phks__operator_build(mesh, opt, &op);
+    phks__span at = {opt, PHKS_STAGE_OPERATOR, PHKS__UNIT_MESH_SPAN,
+                     1 - PHKS__UNIT_MESH_SPAN};
+    phks_status st = phks__operator_build(um, opt, at, &op);
     if (st != PHKS_OK)
         return st;
     size_t n = spec->n;
@@ -179,20 +172,23 @@ static phks_status compute_exact(const phks_mesh *mesh, const phks_options *opt,
     return st;
 }
 
-/* phks_spectrum_compute on resolved options. */
-static phks_status compute(const phks_mesh *mesh, const phks_options *opt,
-                           phks_spectrum **out)
+phks_status phks__spectrum_compute(const phks__unit_mesh *um,
+                                   const phks_options *opt,
+                                   phks_spectrum **out)
 {
+    *out = NULL;
     phks_spectrum *spec = phks__calloc(1, sizeof *spec);
     if (!spec)
         return phks__fail_oom("spectrum");
-    spec->n = mesh->vertex_count;
+    spec->n = um->mesh->vertex_count;
     spec->options = *opt;
     spec->options.progress = NULL;
     spec->options.progress_user = NULL;
+    phks__team *team = phks__team_enter(phks__thread_count(opt));
     phks_status st = phks__simplify_applies(opt, spec->n)
-                         ? compute_simplified(mesh, opt, spec)
-                         : compute_exact(mesh, opt, spec);
+                         ? compute_simplified(um, opt, spec)
+                         : compute_exact(um, opt, spec);
+    phks__team_leave(team);
     if (st == PHKS_OK)
         st = phks__progress(opt, PHKS_STAGE_EIGEN, 1);
     if (st != PHKS_OK) {
@@ -216,9 +212,15 @@ phks_status phks_spectrum_compute(const phks_mesh *mesh,
     phks_status st = phks__options_resolve(options, &opt);
     if (st != PHKS_OK)
         return st;
-    phks__team *team = phks__team_enter(phks__thread_count(&opt));
-    st = compute(mesh, &opt, out);
-    phks__team_leave(team);
+    phks__unit_mesh um;
+    phks__span at = {&opt, PHKS_STAGE_OPERATOR, 0, PHKS__UNIT_MESH_SPAN};
+    st = phks__progress(&opt, PHKS_STAGE_OPERATOR, 0);
+    if (st == PHKS_OK)
+        st = phks__unit_mesh_init(mesh, (phks_box)opt.box, at, &um);
+    if (st != PHKS_OK)
+        return st;
+    st = phks__spectrum_compute(&um, &opt, out);
+    phks__unit_mesh_release(&um);
     return st;
 }
 

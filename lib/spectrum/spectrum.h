@@ -30,4 +30,15 @@ double phks__hks_at(const phks_spectrum *spec, double t, size_t v);
 phks_status phks__hks_all(const phks_spectrum *spec, double t,
                          const phks_options *opt, double *out);
 
+/* The part of PHKS_STAGE_OPERATOR in which a computation's top finds the
+ * unit box and the areas (phks__unit_mesh_init) before the operator. */
+#define PHKS__UNIT_MESH_SPAN 0.03
+
+/* phks_spectrum_compute on resolved options, for the mesh seen through um
+ * (its unit box's scale and areas, computed once by the caller). Enters
+ * the library's thread team for the solve. */
+phks_status phks__spectrum_compute(const phks__unit_mesh *um,
+                                   const phks_options *opt,
+                                   phks_spectrum **out);
+
 #endif /* PHKS_SPECTRUM_H */
