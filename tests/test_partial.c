@@ -1,5 +1,5 @@
-/* test_partial.c - partial scans and incomplete models (examples/partial.c)
- * against expectations known independently: the seen half of a sphere,
+/* test_partial.c - partial scans and incomplete models
+ * (tests/fixtures/partial.c) against expectations known independently: the seen half of a sphere,
  * squares hiding each other, a brute-force ray cast, the planes' sides. */
 #include "testutil.h"
 
