@@ -90,6 +90,32 @@ unsigned phks__thread_count(const phks_options *opt);
 phks_status phks__run_batched(size_t n, unsigned threads, phks__range_fn fn,
                               void *ctx, phks__span at, size_t batches);
 
+/* ---- sorting and union-find */
+/* A 64-bit sort key with a 32-bit payload. */
+typedef struct phks__keyed {
+    uint64_t key;
+    uint32_t id;
+} phks__keyed;
+
+/* Stable LSD radix sort of a[0, n) on the low `bits` bits of the keys, 11
+ * bits a pass, through the scratch tmp (n entries): *sorted is a or tmp,
+ * whichever holds the result. Reports through `at` between passes over
+ * 2^18 items or more; returns PHKS_ERROR_CANCELLED when the callback
+ * asks. */
+phks_status phks__radix_sort(phks__keyed *a, phks__keyed *tmp, size_t n,
+                             unsigned bits, phks__span at, phks__keyed **sorted);
+
+/* The root of x in the union-find forest `parent` (a root is its own
+ * parent), halving the path on the way: nearly constant amortised time. */
+static inline uint32_t phks__find_root(uint32_t *parent, uint32_t x)
+{
+    while (parent[x] != x) {
+        parent[x] = parent[parent[x]];
+        x = parent[x];
+    }
+    return x;
+}
+
 /* ---- deterministic start vectors (random.c) */
 /* Fills v with n numbers in [-0.5, 0.5) from a fixed generator started at
  * `state`: the solvers start from the same vectors on every run, so

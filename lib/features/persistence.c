@@ -109,12 +109,6 @@ typedef struct region_entry {
     uint32_t t;
 } region_entry;
 
-/* A 64-bit sort key with a 32-bit payload. */
-typedef struct sort_item {
-    uint64_t key;
-    uint32_t id;
-} sort_item;
-
 typedef struct merger {
     const phks_mesh *mesh;
     const uint32_t *edge_start; /* mesh edge_tri_offset */
@@ -209,39 +203,12 @@ static phks_status phase(merger *m, int p, double from, double to)
 
 /* ---- sorting and ranks */
 
-/* Stable LSD radix sort on key, 11 bits a pass; returns the sorted copy
- * (a or tmp) in *sorted. Reports progress through the current phase
- * between passes over many items. */
-static phks_status radix_sort(const merger *m, sort_item *a, sort_item *tmp,
-                              size_t n, sort_item **sorted)
+/* phks__radix_sort on all 64 bits, reporting through the current phase. */
+static phks_status radix_sort(const merger *m, phks__keyed *a, phks__keyed *tmp,
+                              size_t n, phks__keyed **sorted)
 {
-    enum { BITS = 11, BUCKETS = 1 << BITS };
-    size_t count[BUCKETS];
-    for (unsigned shift = 0; shift < 64 && n > 0; shift += BITS) {
-        if (n >= (size_t)1 << LIGHT && shift > 0) {
-            phks_status st = report(m, shift, 64);
-            if (st != PHKS_OK)
-                return st;
-        }
-        memset(count, 0, sizeof count);
-        for (size_t i = 0; i < n; i++)
-            count[(a[i].key >> shift) & (BUCKETS - 1)]++;
-        if (count[(a[0].key >> shift) & (BUCKETS - 1)] == n)
-            continue; /* one digit everywhere: nothing to move */
-        size_t sum = 0;
-        for (size_t d = 0; d < BUCKETS; d++) {
-            size_t c = count[d];
-            count[d] = sum;
-            sum += c;
-        }
-        for (size_t i = 0; i < n; i++)
-            tmp[count[(a[i].key >> shift) & (BUCKETS - 1)]++] = a[i];
-        sort_item *s = a;
-        a = tmp;
-        tmp = s;
-    }
-    *sorted = a;
-    return PHKS_OK;
+    phks__span phase = phks__span_part(m->at, m->from, m->from + m->width);
+    return phks__radix_sort(a, tmp, n, 64, phase, sorted);
 }
 
 /* A key whose unsigned order is the order of the doubles (-0 as +0). */
@@ -259,16 +226,16 @@ static phks_status rank_values(merger *m, const double *f, size_t n)
 {
     m->vertex_rank = phks__malloc_array(n, sizeof *m->vertex_rank);
     m->value = phks__malloc_array(n, sizeof *m->value);
-    sort_item *a = phks__malloc_array(n, sizeof *a);
-    sort_item *tmp = phks__malloc_array(n, sizeof *tmp);
+    phks__keyed *a = phks__malloc_array(n, sizeof *a);
+    phks__keyed *tmp = phks__malloc_array(n, sizeof *tmp);
     if (!m->vertex_rank || !m->value || !a || !tmp) {
         phks__free(a);
         phks__free(tmp);
         return phks__fail_oom("persistence ranks");
     }
     for (size_t v = 0; v < n; v++)
-        a[v] = (sort_item){double_key(f[v]), (uint32_t)v};
-    sort_item *s = NULL;
+        a[v] = (phks__keyed){double_key(f[v]), (uint32_t)v};
+    phks__keyed *s = NULL;
     phks_status st = radix_sort(m, a, tmp, n, &s);
     uint32_t r = 0;
     for (size_t i = 0; st == PHKS_OK && i < n; i++) {
@@ -294,12 +261,7 @@ static uint32_t edge_rank(const merger *m, uint32_t e)
 
 static uint32_t find(merger *m, uint32_t t)
 {
-    uint32_t *p = m->parent;
-    while (p[t] != t) {
-        p[t] = p[p[t]];
-        t = p[t];
-    }
-    return t;
+    return phks__find_root(m->parent, t);
 }
 
 /* Triangle a later than b in triangle order. */
@@ -681,15 +643,6 @@ static int is_boundary(const merger *m, const uint32_t *label, uint32_t e)
     return 0;
 }
 
-static uint32_t group_find(uint32_t *up, uint32_t x)
-{
-    while (up[x] != x) {
-        up[x] = up[up[x]];
-        x = up[x];
-    }
-    return x;
-}
-
 /* The true persistence of the n regions left, queue[0 .. n), into
  * queue[i].p: the dual sweep over their boundary edges by decreasing edge
  * order; when an edge joins groups of regions, all but the one whose
@@ -720,8 +673,8 @@ static phks_status survivors_persistence(merger *m, size_t n)
     }
     if (b == 0)
         return PHKS_OK;
-    sort_item *a = phks__malloc_array(b, sizeof *a);
-    sort_item *tmp = phks__malloc_array(b, sizeof *tmp);
+    phks__keyed *a = phks__malloc_array(b, sizeof *a);
+    phks__keyed *tmp = phks__malloc_array(b, sizeof *tmp);
     uint32_t *up = phks__malloc_array(n, sizeof *up);
     uint32_t *top = phks__malloc_array(n, sizeof *top); /* latest central */
     if (!a || !tmp || !up || !top) {
@@ -737,9 +690,9 @@ static phks_status survivors_persistence(merger *m, size_t n)
         if (due(e, LIGHT) && (st = report(m, e, n_e)) != PHKS_OK)
             break;
         if (is_boundary(m, label, e))
-            a[k++] = (sort_item){(uint64_t)edge_rank(m, e) << 32 | e, e};
+            a[k++] = (phks__keyed){(uint64_t)edge_rank(m, e) << 32 | e, e};
     }
-    sort_item *s = NULL;
+    phks__keyed *s = NULL;
     if (st == PHKS_OK)
         st = phase(m, PHASE_SURVIVORS, 0.75, 0.85);
     if (st == PHKS_OK)
@@ -754,13 +707,13 @@ static phks_status survivors_persistence(merger *m, size_t n)
             break;
         uint32_t e = s[j].id, eldest = NIL;
         for (uint32_t i = m->edge_start[e]; i < m->edge_start[e + 1]; i++) {
-            uint32_t g = group_find(up, label[m->edge_tris[i]]);
+            uint32_t g = phks__find_root(up, label[m->edge_tris[i]]);
             if (eldest == NIL || tri_later(m, q[top[g]].t, q[top[eldest]].t))
                 eldest = g;
         }
         double h = m->value[s[j].key >> 32];
         for (uint32_t i = m->edge_start[e]; i < m->edge_start[e + 1]; i++) {
-            uint32_t g = group_find(up, label[m->edge_tris[i]]);
+            uint32_t g = phks__find_root(up, label[m->edge_tris[i]]);
             if (g == eldest)
                 continue;
             m->queue[top[g]].p = m->value[q[top[g]].rank] - h;

@@ -302,15 +302,6 @@ done:
     return st;
 }
 
-static uint32_t find_root(uint32_t *parent, uint32_t v)
-{
-    while (parent[v] != v) {
-        parent[v] = parent[parent[v]];
-        v = parent[v];
-    }
-    return v;
-}
-
 static phks_status build_components(phks_mesh *m)
 {
     size_t n = m->vertex_count;
@@ -323,14 +314,14 @@ static phks_status build_components(phks_mesh *m)
     for (size_t v = 0; v < n; v++)
         parent[v] = (uint32_t)v;
     for (size_t e = 0; e < m->edge_count; e++) {
-        uint32_t a = find_root(parent, m->edge_vertices[2 * e]);
-        uint32_t b = find_root(parent, m->edge_vertices[2 * e + 1]);
+        uint32_t a = phks__find_root(parent, m->edge_vertices[2 * e]);
+        uint32_t b = phks__find_root(parent, m->edge_vertices[2 * e + 1]);
         if (a != b)
             parent[a > b ? a : b] = a < b ? a : b; /* root = lowest vertex */
     }
     size_t count = 0;
     for (size_t v = 0; v < n; v++) {
-        uint32_t r = find_root(parent, (uint32_t)v);
+        uint32_t r = phks__find_root(parent, (uint32_t)v);
         m->vertex_component[v] = r == v ? (uint32_t)count++ : m->vertex_component[r];
     }
     m->component_count = count;

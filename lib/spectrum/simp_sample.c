@@ -277,45 +277,6 @@ static void candidates_release(candidates *c)
     memset(c, 0, sizeof *c);
 }
 
-typedef struct {
-    uint64_t key;
-    uint32_t vertex;
-} keyed;
-
-/* Stable LSD radix sort by key (the low `bits` bits), 11 bits a pass. */
-static phks_status radix_sort(keyed *a, size_t n, unsigned bits)
-{
-    keyed *tmp = phks__malloc_array(n, sizeof *tmp);
-    size_t *count = phks__malloc_array(2048, sizeof *count);
-    if (!tmp || !count) {
-        phks__free(tmp);
-        phks__free(count);
-        return phks__fail_oom("simplification: sort");
-    }
-    keyed *src = a, *dst = tmp;
-    for (unsigned shift = 0; shift < bits; shift += 11) {
-        memset(count, 0, 2048 * sizeof *count);
-        for (size_t i = 0; i < n; i++)
-            count[(src[i].key >> shift) & 2047]++;
-        size_t sum = 0;
-        for (size_t d = 0; d < 2048; d++) {
-            size_t c = count[d];
-            count[d] = sum;
-            sum += c;
-        }
-        for (size_t i = 0; i < n; i++)
-            dst[count[(src[i].key >> shift) & 2047]++] = src[i];
-        keyed *swap = src;
-        src = dst;
-        dst = swap;
-    }
-    if (src != a)
-        memcpy(a, src, n * sizeof *a);
-    phks__free(tmp);
-    phks__free(count);
-    return PHKS_OK;
-}
-
 static phks_status make_candidates(const double *xyz, size_t n,
                                    const double *area, double eps,
                                    candidates *out)
@@ -343,9 +304,13 @@ static phks_status make_candidates(const double *xyz, size_t n,
     while (bits < 64 && ((uint64_t)1 << bits) < dims[0] * dims[1] * dims[2])
         bits++;
 
-    keyed *a = phks__malloc_array(n, sizeof *a);
-    if (!a)
+    phks__keyed *a = phks__malloc_array(n, sizeof *a);
+    phks__keyed *tmp = phks__malloc_array(n, sizeof *tmp), *sorted = NULL;
+    if (!a || !tmp) {
+        phks__free(a);
+        phks__free(tmp);
         return phks__fail_oom("simplification: candidates");
+    }
     for (size_t v = 0; v < n; v++) {
         uint64_t c[3];
         for (int d = 0; d < 3; d++) {
@@ -353,9 +318,14 @@ static phks_status make_candidates(const double *xyz, size_t n,
             c[d] = x < 0 ? 0 : x >= (double)dims[d] ? dims[d] - 1 : (uint64_t)x;
         }
         a[v].key = (c[2] * dims[1] + c[1]) * dims[0] + c[0];
-        a[v].vertex = (uint32_t)v;
+        a[v].id = (uint32_t)v;
     }
-    phks_status st = radix_sort(a, n, bits);
+    phks_status st = phks__radix_sort(a, tmp, n, bits, PHKS__SPAN_NONE, &sorted);
+    if (sorted == tmp) {
+        tmp = a;
+        a = sorted;
+    }
+    phks__free(tmp);
     size_t count = 0;
     for (size_t i = 0; st == PHKS_OK && i < n; i++)
         count += i == 0 || a[i].key != a[i - 1].key;
@@ -377,21 +347,21 @@ static phks_status make_candidates(const double *xyz, size_t n,
         size_t j = i;
         double mass = 0, g[3] = {0, 0, 0};
         for (; j < n && a[j].key == a[i].key; j++) {
-            const double *p = xyz + 3 * (size_t)a[j].vertex;
-            double w = area[a[j].vertex];
+            const double *p = xyz + 3 * (size_t)a[j].id;
+            double w = area[a[j].id];
             mass += w;
             for (int d = 0; d < 3; d++)
                 g[d] += w * p[d];
         }
         for (int d = 0; d < 3; d++)
             g[d] /= mass;
-        uint32_t best = a[i].vertex;
+        uint32_t best = a[i].id;
         double best_d = dist2(xyz + 3 * (size_t)best, g);
-        for (const keyed *q = a + i + 1; q < a + j; q++) {
-            double d = dist2(xyz + 3 * (size_t)q->vertex, g);
+        for (const phks__keyed *q = a + i + 1; q < a + j; q++) {
+            double d = dist2(xyz + 3 * (size_t)q->id, g);
             if (d < best_d) {
                 best_d = d;
-                best = q->vertex;
+                best = q->id;
             }
         }
         out->vertex[c] = best;
