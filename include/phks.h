@@ -386,7 +386,7 @@ PHKS_API double phks_mesh_area(const phks_mesh *mesh);
  * the samples' kernel sums match the mesh's. The operator above is built
  * on the samples with those areas, and its eigenvectors are extended to
  * any vertex w by the Nystrom formula over the samples p within the
- * cut-off (NOTES: section 6),
+ * cut-off (docs/method.md section 11),
  *   phi(w) = sum_p A_p W(w,p) phi(p) / (sum_p A_p W(w,p) - 4 pi h^2 lambda)
  * (random walk: divided by (1 - h lambda) sum_p A_p W(w,p)), which gives
  * back phi(p) at a sample. Time and memory grow linearly with the vertex

@@ -1,5 +1,5 @@
 /*
- * eigen_lanczos.c - the fast solver: block Lanczos on a Chebyshev
+ * lanczos.c - the fast solver: block Lanczos on a Chebyshev
  * polynomial of B, with full re-orthogonalisation; the converged Ritz
  * vectors, checked against B itself.
  *
@@ -37,11 +37,11 @@
  *  dense solver directly.
  *
  * The whole solve runs in the numbering of the operator's pair layout
- * (operator_pairs.c: the points in Morton order), whose kernel applies B
+ * (lanczos_pairs.c: the points in Morton order), whose kernel applies B
  * to row-major blocks of BLOCK vectors fused with the Chebyshev recurrence
  * (one pass over the matrix per degree for the whole block); the
  * Gram-Schmidt and QR products take those row-major blocks as they are
- * (block_project.c). All of these run on the library's threads, each
+ * (lanczos_gram.c). All of these run on the library's threads, each
  * result entry summed by one thread in a fixed order, so results are
  * bit-identical between runs and for any value of the threads option (the
  * BLAS's own thread count being fixed); between products
@@ -85,7 +85,7 @@
  * check) rather than late (more basis). */
 #define FIRST_SLOPE 0.25
 /* Largest n for which a solve that did not converge is redone densely
- * (eigen_dense.c's own limit). */
+ * (dense.c's own limit). */
 #define DENSE_FALLBACK_MAX_N 16384
 
 
@@ -341,7 +341,7 @@ static void project(lanczos *L, size_t lo, size_t m, double *w, long col)
 }
 
 /* One classical Gram-Schmidt pass of the row-major block wr against
- * V[:, lo:m] (block_project.c); when col >= 0 the coefficients are added
+ * V[:, lo:m] (lanczos_gram.c); when col >= 0 the coefficients are added
  * to T (rows lo..m-1 of columns col..col+b-1). */
 static void project_rows(lanczos *L, const engine *e, size_t lo, size_t m,
                          double *wr, long col)

@@ -1,5 +1,5 @@
 /*
- * block_project.c - the Gram-Schmidt products of the eigen-solver: a block
+ * lanczos_gram.c - the Gram-Schmidt products of the eigen-solver: a block
  * W of PHKS__PAIR_BLOCK vectors (row-major, as the operator products leave
  * it) against a basis V of cnt vectors (column-major):
  *     C = V^T W,   W -= V C.

@@ -1,5 +1,5 @@
 /*
- * operator_pairs.c - the operator laid out for fast products on blocks of
+ * lanczos_pairs.c - the operator laid out for fast products on blocks of
  * vectors: the eigen-solver's hot loop.
  *
  * A product of B with a block of PHKS__PAIR_BLOCK vectors (row-major, one

@@ -1,5 +1,5 @@
 /*
- * ritz_product.c - X = V S for the eigen-solver's Ritz vectors (V: n x m,
+ * lanczos_ritz.c - X = V S for the eigen-solver's Ritz vectors (V: n x m,
  * S: m x k, X: n x k, all column-major), on the library's threads; also
  * its other products of n-row vectors with a small matrix (the residuals'
  * sketch, Rayleigh-Ritz).

@@ -1,7 +1,7 @@
 /*
  * persistence.c - persistent maxima of a vertex function and the induced
  * segmentation, by region merging (paper section 3.2 and appendix A,
- * NOTES.md section 4).
+ * docs/method.md section 7).
  *
  * Definitions (they fix every tie, so results never vary between runs):
  * - f has one finite value per vertex. Vertex order: (f, vertex index).
@@ -62,7 +62,7 @@
  * - Once the segmentation is taken, going on merging until the end is
  *   region merging on the quotient graph (survivors as nodes, their
  *   boundary edges as edges), whose pairs are those of the dual sweep
- *   (NOTES.md section 4): the survivors' persistences come from sorting
+ *   (docs/method.md section 7): the survivors' persistences come from sorting
  *   their boundary edges and one union-find sweep over them, instead of
  *   draining heaps that by then hold nearly every edge.
  * Time O(T log T): pairing heaps and the union-find (path halving, the

@@ -41,7 +41,7 @@ phks_status phks__mesh_build(const double *xyz, size_t vertex_count,
                             const uint32_t *triangles, size_t triangle_count,
                             const uint32_t *vertex_origin, phks_mesh **out);
 
-/* ---- normalisation (normalize.c) */
+/* ---- normalisation (unit_box.c) */
 /* Scale factor s such that s * positions fit the unit box of `box`. */
 phks_status phks__unit_box_scale(const phks_mesh *mesh, phks_box box,
                                 double *scale);

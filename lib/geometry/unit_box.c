@@ -1,5 +1,5 @@
 /*
- * normalize.c - scaling to the unit box, and vertex masses. tau = 0.0002
+ * unit_box.c - scaling to the unit box, and vertex masses. tau = 0.0002
  * only means something on a mesh of unit size, so every shape is scaled
  * before the operator is built.
  */

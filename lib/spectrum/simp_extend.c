@@ -1,6 +1,6 @@
 /*
- * extend.c - from the samples' eigenpairs back to every mesh vertex, by
- * the Nystrom formula (NOTES.md section 6). The eigen-equation of the
+ * simp_extend.c - from the samples' eigenpairs back to every mesh vertex, by
+ * the Nystrom formula (docs/method.md section 11). The eigen-equation of the
  * samples' operator, written at any point w with the samples p within the
  * cut-off, s_w = sum_p A_p W(w,p) and N_w = sum_p A_p W(w,p) phi(p):
  *
@@ -11,7 +11,7 @@
  * phi(p), so the extension interpolates the samples' eigenvectors; between
  * them it is the eigenfunction of the same kernel operator. The samples'
  * operator weighs the kernel between p and q by sqrt(g_p g_q) (the gains
- * of simplify.c), so the sums are taken with weights A_p W(w,p) sqrt(g_p),
+ * of simp_sample.c), so the sums are taken with weights A_p W(w,p) sqrt(g_p),
  * and sqrt(g_w) at w is their kernel average s'_w / s_w:
  *
  *   literal:      phi(w) = N'_w / (s'_w - 4 pi h^2 lambda s_w / s'_w)

@@ -1,7 +1,8 @@
 /*
- * simplify.c - the samples of HKS-simp (paper appendix B, NOTES.md
- * section 6): local maxima of a short-time heat diagonal, with spatial
- * coverage, each carrying the area of the mesh vertices it stands for.
+ * simp_sample.c - the samples of HKS-simp (paper appendix B,
+ * docs/method.md section 11): local maxima of a short-time heat
+ * diagonal, with spatial coverage, each carrying the area of the mesh
+ * vertices it stands for.
  *
  * The paper propagates unit vectors alpha steps with the heat operator
  * H = I - tau D^-1 L of the whole mesh and keeps the local maxima of the
