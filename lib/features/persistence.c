@@ -69,8 +69,9 @@
  * popped root linked under the target's) are O(log T) amortised per
  * operation; the sorts are linear. Memory: 74 bytes per triangle, plus 16
  * per boundary-edge side after the sweep (few for smooth functions, at
- * most 48 per triangle). On a 3.2M-triangle mesh: about 1.4 s for a
- * smooth function, 4-5 s for white noise (many maxima). So the signature
+ * most 48 per triangle). On a large mesh that is long enough to need
+ * progress, longer for a function with many maxima (timings in
+ * docs/benchmarks.md). So the signature
  * path (phks__persistence_run) reports progress inside every phase, every
  * so many steps, and stops at the next report when cancelled; the steps
  * and the results are the same with or without a callback.
@@ -154,13 +155,14 @@ static void merger_release(merger *m)
 }
 
 /* ---- progress: each phase has a share of the stage's span (its share
- * of the time on a 1.6M-vertex mesh and a smooth f) and reports at its
+ * of the time measured on a large mesh and a smooth f) and reports at its
  * start and every so many steps inside: 2^16 for the steps that merge or
- * build heaps (0.1-0.4 us each; in the merging loops a heap pop is a step
- * too), 2^18 for plain passes over triangles or edges (10-30 ns each), so
- * that a cancellation is noticed within tens of
- * milliseconds whatever the mesh size, at about a hundred reports a
- * second. The number of reports depends on the mesh and f alone, never
+ * build heaps (in the merging loops a heap pop is a step too), 2^18 for
+ * plain passes over triangles or edges, which are far cheaper per step,
+ * so that the interval between reports, and the wait for a cancellation
+ * to be noticed, stays short and about the same whatever the mesh size
+ * (the step costs and intervals measured are in docs/benchmarks.md).
+ * The number of reports depends on the mesh and f alone, never
  * on timing. */
 
 enum { PHASE_RANKS, PHASE_INIT, PHASE_SWEEP, PHASE_HEAPS, PHASE_QUEUE,

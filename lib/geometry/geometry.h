@@ -65,8 +65,9 @@ void phks__local_areas(const phks_mesh *mesh, double scale,
 void phks__sym3_eigen(const double matrix[9], double values[3],
                      double vectors[9]);
 /* The same with progress in `stage` from done to done + span through opt
- * (NULL: none), every 2^18 triangles or vertices (a tenth of a second for
- * a million vertices takes a few reports); they return
+ * (NULL: none), every 2^18 triangles or vertices (so that even the pass
+ * over a large mesh reports several times: docs/benchmarks.md); they
+ * return
  * PHKS_ERROR_CANCELLED when the callback asks. The numbers are the
  * same. */
 phks_status phks__unit_box_scale_progress(const phks_mesh *mesh, phks_box box,

@@ -7,8 +7,9 @@
 
 #include <math.h>
 
-/* Loops over a million triangles take a tenth of a second: they report
- * progress every STEP triangles or vertices. */
+/* Loops over millions of triangles are long enough to need progress
+ * reports (docs/benchmarks.md): they report every STEP triangles or
+ * vertices. */
 #define STEP ((size_t)1 << 18)
 
 /* Where a loop reports: fractions of opt's stage (opt NULL: nowhere). */

@@ -11,8 +11,9 @@
  *   --Nystrom extension--> HKS at any vertex, computed when asked for.
  *
  * Nothing here holds an n x eigen_count array: the samples' eigenvectors
- * (samples x eigen_count) and O(n) arrays are all that is kept, so a
- * million-vertex mesh costs a few hundred megabytes.
+ * (samples x eigen_count) and O(n) arrays are all that is kept, so memory
+ * grows only linearly with the vertex count (docs/benchmarks.md has the
+ * memory measured on large meshes).
  */
 #ifndef PHKS_SIMP_H
 #define PHKS_SIMP_H

@@ -44,11 +44,10 @@
  *    are (the heat's gathering points, about one sample in six); the
  *    other samples take RELAX_ROUNDS Lloyd steps (each moves to the vertex
  *    nearest the centroid of the vertices nearest to it). Evenly spaced
- *    samples make a better quadrature of the kernel: on a 28k-vertex PSB
- *    bust (psb/305) reduced to 3000 samples, the correlation of HKS at
- *    5 tau with the exact one (literal operator) was 0.88 without the
- *    relaxation and 0.98 with it; pinning every rho-maximum instead of
- *    those at PIN_RADIUS rho cost about 0.01 of it.
+ *    samples make a better quadrature of the kernel, and HKS at 5 tau
+ *    correlates much better with the exact one; pinning every rho-maximum
+ *    instead of those at PIN_RADIUS rho lost a little of that gain
+ *    (docs/benchmarks.md).
  * 5. Masses and gains. Every mesh vertex gives its area to its nearest
  *    sample (Euclidean, ties to the lower sample): Voronoi areas. They are
  *    then adjusted so that the samples reproduce the mesh's own kernel

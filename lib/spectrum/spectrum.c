@@ -96,8 +96,8 @@ static phks_status compute_simplified(const phks_mesh *mesh,
     double *sample_xyz = NULL, *sample_mass = NULL;
     double *area = phks__malloc_array(n, sizeof *area);
     phks_status st = area ? PHKS_OK : phks__fail_oom("spectrum");
-    /* The unit box and the areas: three passes over the triangles, a
-     * few tenths of a second on a million vertices. */
+    /* The unit box and the areas: three passes over the triangles, long
+     * enough on a large mesh to report (docs/benchmarks.md). */
     if (st == PHKS_OK)
         st = phks__progress(opt, PHKS_STAGE_OPERATOR, 0);
     if (st == PHKS_OK)
