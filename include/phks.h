@@ -214,11 +214,11 @@ typedef enum phks_stage {
 /* Called from the thread that called the long-running function, with the
  * fraction of the current stage done (0..1). Return 0 to continue, non-zero
  * to cancel: the function then returns PHKS_ERROR_CANCELLED promptly, with
- * everything it made freed. Every stage reports several times a second
- * or more on a million vertices (the eigen-solver between operator
- * applications and between its dense steps, a few tenths of a second
- * each); docs/benchmarks.md has the longest silences and the latency of a
- * cancellation measured on a 1.6M-vertex mesh. With
+ * everything it made freed. Every stage reports between bounded pieces of
+ * work, whatever the mesh size (the eigen-solver between operator
+ * applications and between its dense steps, which cannot report from
+ * inside); docs/benchmarks.md has the report intervals, the longest
+ * silences and the latency of a cancellation measured on a large mesh. With
  * HKS-simp, PHKS_STAGE_OPERATOR covers choosing the samples and their
  * operator, and PHKS_STAGE_HKS the extension to every vertex.
  * PHKS_STAGE_PERSISTENCE covers the boundary margin, the region merging
@@ -386,20 +386,19 @@ PHKS_API double phks_mesh_area(const phks_mesh *mesh);
  * the samples' kernel sums match the mesh's. The operator above is built
  * on the samples with those areas, and its eigenvectors are extended to
  * any vertex w by the Nystrom formula over the samples p within the
- * cut-off (NOTES: section 6),
+ * cut-off (docs/method.md section 11),
  *   phi(w) = sum_p A_p W(w,p) phi(p) / (sum_p A_p W(w,p) - 4 pi h^2 lambda)
  * (random walk: divided by (1 - h lambda) sum_p A_p W(w,p)), which gives
  * back phi(p) at a sample. Time and memory grow linearly with the vertex
- * count: no eigenvector is ever held for every vertex (1.6M vertices:
- * 20-30 s and 0.6 GB for a signature on two cores). Such a spectrum's
+ * count: no eigenvector is ever held for every vertex (docs/benchmarks.md
+ * has the time and memory measured on large meshes). Such a spectrum's
  * eigenvectors and mass have one entry per sample
  * (phks_spectrum_sample_count and phks_spectrum_sample_vertices say
  * which); phks_spectrum_hks gives every vertex's HKS through the
- * extension. It is an approximation: on a 4.8k-vertex shape reduced to
- * 1500 samples (test_simplify), the HKS differs from the exact one by
- * 1.2%, 0.2% and 0.1% (mean relative L1) and correlates at 0.999, 0.99999
- * and 1.0 at t = 5, 40 and 100 tau; docs/benchmarks.md has 30k-vertex
- * meshes. With the literal operator, the exact HKS at small t of a mesh
+ * extension. It is an approximation, closest to the exact HKS at large t
+ * (docs/method.md section 11; docs/benchmarks.md has its measured mean
+ * relative L1 error and correlation against the exact HKS, per time
+ * scale). With the literal operator, the exact HKS at small t of a mesh
  * with sharp tips also carries eigenvectors concentrated on single
  * vertices (their HKS grows as 1 / vertex area), which samples cannot
  * carry: there HKS-simp agrees at t = 40 tau and above only.
@@ -440,8 +439,9 @@ PHKS_API const double *phks_spectrum_mass(const phks_spectrum *spectrum);
  * (vertex_count values). t is absolute time on the unit-box mesh (t = 5 tau
  * is 0.001 by default), t >= 0. With HKS-simp each call extends every
  * eigenvector to every vertex on the spectrum's options->threads threads,
- * in single precision (1e-6 relative): 1.6M vertices from 10k samples
- * take about 9 s on two cores. Errors: PHKS_ERROR_INVALID_ARGUMENT, and
+ * in single precision (1e-6 relative), a cost that grows with the vertex
+ * count: call it once per t (docs/benchmarks.md has timings). Errors:
+ * PHKS_ERROR_INVALID_ARGUMENT, and
  * with HKS-simp PHKS_ERROR_OUT_OF_MEMORY. Thread-safe. */
 PHKS_API phks_status phks_spectrum_hks(const phks_spectrum *spectrum, double t,
                                        double *out);
@@ -478,10 +478,10 @@ typedef struct phks_maximum {
  * a maximum breaks ties in f by the larger index.
  * Errors: PHKS_ERROR_INVALID_ARGUMENT (NULL, max_count 0, negative or NaN
  * threshold), PHKS_ERROR_NON_FINITE (in f), PHKS_ERROR_OUT_OF_MEMORY.
- * No progress reports and no cancellation here: on 3.2 million triangles
- * it takes 1-2 s for a smooth f, several seconds for white noise (many
- * maxima). phks_signature_compute reports progress inside this same
- * computation.
+ * No progress reports and no cancellation here: it takes O(T log T) time
+ * for T triangles, short next to the spectrum but noticeable on a large
+ * mesh, longer for an f with many maxima (docs/benchmarks.md).
+ * phks_signature_compute reports progress inside this same computation.
  * Thread-safe. */
 PHKS_API phks_status phks_persistent_maxima(const phks_mesh *mesh,
                                             const double *f, size_t max_count,
@@ -711,8 +711,8 @@ typedef struct phks_hit {
  * go to the lower id. hits needs room for k records; *count gets
  * min(k, entries). The scores are exactly phks_score's. The first query
  * of a handle, and the first after another connection committed, reads
- * every entry into the packed copy (seconds for a million entries); the
- * others only scan it. Errors:
+ * every entry into the packed copy (far slower than a scan on a large
+ * database: docs/benchmarks.md); the others only scan it. Errors:
  * PHKS_ERROR_INVALID_ARGUMENT (NULL, k = 0), PHKS_ERROR_INCOMPATIBLE (query
  * made with other options than the database's), PHKS_ERROR_IO,
  * PHKS_ERROR_OUT_OF_MEMORY. Many threads may query one handle at once. */

@@ -212,7 +212,8 @@ START_TEST(incompatible_options_refuse_to_score)
 }
 END_TEST
 
-/* Score and match against a brute-force evaluation of NOTES.md section 5. */
+/* Score and match against a brute-force evaluation of docs/method.md
+ * section 10. */
 START_TEST(score_is_the_symmetric_nearest_sum)
 {
     phks_signature *a = make(5, 8), *b = make(9, 9);

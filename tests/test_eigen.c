@@ -2,8 +2,8 @@
  * test_eigen.c - phks_spectrum_compute against a dense solve of the
  * generalised problem done here.
  *
- * Oracle: S and M built by brute force over all vertex pairs from NOTES.md
- * section 2 (positions scaled by 1 / longest side of the axis-aligned box,
+ * Oracle: S and M built by brute force over all vertex pairs (docs/method.md
+ * sections 3-4; positions scaled by 1 / longest side of the axis-aligned box,
  * A = a third of the incident triangle areas, W cut at cutoff * sqrt(4h),
  * S = (diag(K 1) - K) / (4 pi h^2), M = diag(A) or diag(A D)), then
  * S phi = lambda M phi solved by LAPACKE_dsygvd, which works from S and M

@@ -1,6 +1,6 @@
 /*
- * test_operator.c - the mesh-Laplacian (lib/laplacian.c) against a brute
- * force build of NOTES.md section 2.
+ * test_operator.c - the mesh-Laplacian (lib/operator/laplacian.c) against
+ * a brute force build of docs/method.md section 3.
  *
  * Oracle: over all vertex pairs (O(n^2), no spatial grid), with positions
  * scaled by s = 1 / (longest side of the axis-aligned bounding box),

@@ -1,8 +1,8 @@
 /*
  * test_persistence.c - phks_persistent_maxima against independent oracles.
  *
- * Oracle 1 (NOTES.md section 4, the dual view): triangles are nodes valued
- * hbar; edges, rebuilt here from the triangle list alone, are swept by
+ * Oracle 1 (docs/method.md section 7, the dual view): triangles are nodes
+ * valued hbar; edges, rebuilt here from the triangle list alone, are swept by
  * decreasing (hbar, edge index) with a plain union-find. When an edge joins
  * components, all but the one whose maximum triangle is latest in triangle
  * order die, with persistence hbar(their maximum) - hbar(edge). This gives

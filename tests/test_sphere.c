@@ -1,6 +1,6 @@
 /*
  * test_sphere.c - the spectrum of a fine sphere against the continuum limit
- * of the operator (NOTES.md section 2).
+ * of the operator (docs/method.md section 5).
  *
  * Oracle (Funk-Hecke): on a sphere of radius R the eigenfunctions of
  *     (L f)(w) = 1/(4 pi h^2) * int W(w,p) (f(p) - f(w)) dA_p,

@@ -6,9 +6,9 @@
  * results are bit-identical from run to run.
  *
  * A team keeps worker threads for the length of one long computation
- * (phks__team_enter .. phks__team_leave): an eigen-solve runs about 800
- * parallel loops on a 5k-vertex mesh, and creating and joining threads
- * for each was measurable. While a team is entered on a thread, the loops
+ * (phks__team_enter .. phks__team_leave): an eigen-solve runs hundreds
+ * of parallel loops, and creating and joining threads for each cost
+ * time (docs/benchmarks.md). While a team is entered on a thread, the loops
  * that thread starts go to the team's threads in small runs of units that
  * each thread takes as it becomes free (of a loop's n units, about
  * n / (8 threads) per run): on a shared machine one thread is often
@@ -27,7 +27,8 @@
 #define MAX_THREADS 64
 
 /* How long a team's thread polls before it sleeps on a condition
- * variable: about 0.1-0.3 ms. The eigen-solver's loops follow each other
+ * variable: well beyond the gap between two loops (docs/benchmarks.md
+ * has the time it takes). The eigen-solver's loops follow each other
  * within microseconds, and a futex wake-up per loop (two per loop, one each
  * way) cost more than the shorter loops themselves on a virtual machine,
  * where each wake-up is an interrupt between processors. */

@@ -1,5 +1,5 @@
 /*
- * eigen_arpack.c - the reference solver: ARPACK-NG's implicitly restarted
+ * arpack.c - the reference solver: ARPACK-NG's implicitly restarted
  * Lanczos in regular mode on B, smallest algebraic eigenvalues. B is
  * bounded, so no shift-invert (and no factorisation) is needed.
  *

@@ -1,5 +1,5 @@
 /*
- * eigen_dense.c - the smallest eigenpairs of B from a dense LAPACK solve
+ * dense.c - the smallest eigenpairs of B from a dense LAPACK solve
  * (dsyevr, MRRR). Exact to rounding, O(n^2) memory and O(n^3) time: the
  * right tool for small meshes and the yardstick for the iterative solvers.
  */

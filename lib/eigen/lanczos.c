@@ -1,5 +1,5 @@
 /*
- * eigen_lanczos.c - the fast solver: block Lanczos on a Chebyshev
+ * lanczos.c - the fast solver: block Lanczos on a Chebyshev
  * polynomial of B, with full re-orthogonalisation; the converged Ritz
  * vectors, checked against B itself.
  *
@@ -37,11 +37,11 @@
  *  dense solver directly.
  *
  * The whole solve runs in the numbering of the operator's pair layout
- * (operator_pairs.c: the points in Morton order), whose kernel applies B
+ * (lanczos_pairs.c: the points in Morton order), whose kernel applies B
  * to row-major blocks of BLOCK vectors fused with the Chebyshev recurrence
  * (one pass over the matrix per degree for the whole block); the
  * Gram-Schmidt and QR products take those row-major blocks as they are
- * (block_project.c). All of these run on the library's threads, each
+ * (lanczos_gram.c). All of these run on the library's threads, each
  * result entry summed by one thread in a fixed order, so results are
  * bit-identical between runs and for any value of the threads option (the
  * BLAS's own thread count being fixed); between products
@@ -63,29 +63,29 @@
 /* Below this (relative to the norm before projection), the new block's
  * orthogonality to the basis is restored by further passes. */
 #define REPAIR 1e-6
-/* Steps of the first, plain Lanczos run that estimates the spectrum: 16
- * gave cuts within a few percent of 24's, and 7% less work over 14 PSB
- * meshes of 4.3k-15k vertices; 12 gave cuts within 4% of 16's on 18 PSB
- * meshes of 4.7k-15.5k vertices, no restart, and 2% less work counted
- * (products, Gram-Schmidt and checks, weighed by their measured costs). */
+/* Steps of the first, plain Lanczos run that estimates the spectrum: the
+ * fewest steps whose cuts stayed close to those of longer probes, with no
+ * restart, and the least total work (products, Gram-Schmidt and checks,
+ * weighed by their costs); the comparisons are in docs/benchmarks.md. */
 #define PROBE_STEPS 12
 /* Degree of the Chebyshev filter: chosen so that p(0) = T_d(x0) is about
  * cosh(FILTER_GROWTH), x0 = (lmax + a) / (lmax - a). With a near
- * 0.5 lmax that is degree 4, measured best among 1, 2, 3, 4, 6, 8 on meshes
- * of 2.6k-15k vertices (k = 300); when lambda_k is a smaller fraction of
+ * 0.5 lmax that is degree 4, the fastest of the degrees tried (k = 300;
+ * docs/benchmarks.md); when lambda_k is a smaller fraction of
  * lmax the degree grows, up to MAX_DEGREE. */
 #define FILTER_GROWTH 4.9
 #define MAX_DEGREE 16
 /* The cut is placed where about CUT_MARGIN (k + guard) eigenvalues lie
  * below it, by the probe's estimate. */
 #define CUT_MARGIN 1.2
-/* The log of (largest Ritz residual / its threshold) falls by 0.12-0.19
- * per basis column on PSB meshes once convergence is near; the second
+/* The log of (largest Ritz residual / its threshold) falls at a steady
+ * rate per basis column once convergence is near, slower than this one
+ * on the meshes measured (docs/benchmarks.md); the second
  * check is placed by this faster rate, so that it comes early (one more
  * check) rather than late (more basis). */
 #define FIRST_SLOPE 0.25
 /* Largest n for which a solve that did not converge is redone densely
- * (eigen_dense.c's own limit). */
+ * (dense.c's own limit). */
 #define DENSE_FALLBACK_MAX_N 16384
 
 
@@ -341,7 +341,7 @@ static void project(lanczos *L, size_t lo, size_t m, double *w, long col)
 }
 
 /* One classical Gram-Schmidt pass of the row-major block wr against
- * V[:, lo:m] (block_project.c); when col >= 0 the coefficients are added
+ * V[:, lo:m] (lanczos_gram.c); when col >= 0 the coefficients are added
  * to T (rows lo..m-1 of columns col..col+b-1). */
 static void project_rows(lanczos *L, const engine *e, size_t lo, size_t m,
                          double *wr, long col)
@@ -476,10 +476,10 @@ static void upper_inverse(const double *f, double *u, size_t b)
  * thread count. Twice is orthogonal to working precision while wr's
  * condition number stays well below 1 / sqrt(eps) (Yamamoto et al. 2015):
  * false, with wr spoilt, when a factor shows a condition above
- * CHOLQR_COND; Householder's QR (next_block) then does the job. Measured
- * against Householder on PSB meshes: the same residuals and eigenvalues,
- * at half the time, and no call into the BLAS between products (whose idle
- * threads would compete with the products' own). */
+ * CHOLQR_COND; Householder's QR (next_block) then does the job. Against
+ * Householder: the same residuals and eigenvalues in less time
+ * (docs/benchmarks.md), and no call into the BLAS between products (whose
+ * idle threads would compete with the products' own). */
 static bool cholesky_qr(lanczos *L, const engine *e, double *wr, double *r)
 {
     size_t b = L->b;
@@ -538,8 +538,9 @@ static phks_status next_block(lanczos *L, size_t m, double *r, double scale)
 
 /* T[0:m, 0:m] to tridiagonal form (diag, off; the reflectors stay in
  * tfull and reflect), and edge = Q^T times the last b unit vectors, which
- * is all the residuals need of the reflectors. The reduction (about 20 ms
- * at m = 624) serves every pairs_t call until T or tfull changes. */
+ * is all the residuals need of the reflectors. The reduction (O(m^3), the
+ * costly part: docs/benchmarks.md) serves every pairs_t call until T or
+ * tfull changes. */
 static phks_status reduce_t(lanczos *L, size_t m)
 {
     size_t b = L->b;
@@ -568,10 +569,9 @@ static phks_status reduce_t(lanczos *L, size_t m)
  * into T's); with vectors false, the values only. MRRR (dstemr) on a copy
  * of the tridiagonal form (it overwrites its input). Asked for a subset,
  * dstemr finds the eigenvalues by bisection, which pays for a few pairs
- * (25 of psb/48's 624: 4.5 ms against 22 ms for all) but not for more
- * than a quarter of them (2.5-4 times as long as all, m of 256-736 on
- * meshes of 5k-15k vertices): then every pair is computed (dqds) and the
- * subset kept. */
+ * but not for more than a quarter of them, where it takes longer than
+ * computing all (docs/benchmarks.md): then every pair is computed (dqds)
+ * and the subset kept. */
 static phks_status pairs_t(lanczos *L, size_t m, size_t il, size_t iu,
                            bool vectors)
 {
@@ -787,7 +787,7 @@ static double filter_inverse(const filter *f, double theta)
  *
  * Why a sketch. The residuals R = B X - X Lambda are still checked, as a
  * safety net under that argument, but not column by column (k / BLOCK
- * products: 17% of all the products of a solve on PSB meshes): the
+ * products, a sizeable share of a solve's: docs/benchmarks.md): the
  * product of B with SKETCH random combinations X g_j, g_j uniform in
  * [-1/2, 1/2]^k, gives R g_j. If a column r_e of R has |r_e| = rho, then
  * with u = R^T r_e / |R^T r_e|, |R g| >= rho |u^T g|, and u^T g has a
@@ -948,12 +948,11 @@ static double worst_excess(const lanczos *L, const double *r, double floor_mu,
 }
 
 /* Wanted pairs a convergence check looks at before all the others: the
- * lowest ones. At every check on 10 PSB meshes of 1.5k-27k vertices the
- * largest ratio of residual to threshold was at the lowest, second or
- * third wanted pair (they lie nearest the guard, where p separates least),
- * so a failing check, most of them, costs the reduction and these pairs
- * (21-33 ms at m = 560-640 on psb/48 and psb/5) instead of every pair
- * (45-63 ms). */
+ * lowest ones. The largest ratio of residual to threshold is at the
+ * lowest wanted pairs (they lie nearest the guard, where p separates
+ * least; so it was at every check measured: docs/benchmarks.md), so a
+ * failing check, most of them, costs the reduction and these pairs
+ * instead of every pair. */
 #define FIRST_PAIRS 24
 
 /* Convergence check at basis size m: *excess is the log of the largest
@@ -997,8 +996,8 @@ static phks_status solve(engine *eng, const filter *f, size_t k,
     double tol = opt->tolerance * norm;
     *cut_low = false;
     lanczos L = {.n = n, .k = k, .b = b, .cap = cap};
-    /* Room for the basis the filtered solves end with on PSB meshes
-     * (1.5 q to 2.2 q): growing it means copying it. */
+    /* Room for the basis the filtered solves end with (a small multiple
+     * of q: docs/benchmarks.md): growing it means copying it. */
     phks_status st = allocate(&L, 2 * q + 4 * b);
     run_ctx rc = {eng, f};
     double r[BLOCK * BLOCK], smallest;
@@ -1007,9 +1006,9 @@ static phks_status solve(engine *eng, const filter *f, size_t k,
         st = qr(&L, L.v, r, &smallest);
     }
     size_t m = b, last_check = 0;
-    /* filtered Lanczos converges with a basis of 1.55 q to 2.2 q on PSB
-     * meshes (a first check at 1.7 q instead of 1.5 q saved a check on
-     * most of 14 meshes, 4% in all), plain Lanczos needs several times q */
+    /* filtered Lanczos converges with a basis of somewhat more than 1.5 q
+     * (a first check at 1.7 q instead of 1.5 q saves a check on most
+     * meshes: docs/benchmarks.md), plain Lanczos needs several times q */
     size_t next_check = (f->degree > 1 ? 17 * q / 10 : 2 * q) / b * b;
     double last_excess = 0;
     /* The polynomial's accuracy: Ritz residuals of p(B) are relative to

@@ -9,7 +9,7 @@
 #include "eigen/eigen.h"
 #include "core/simd.h"
 
-/* ---- the operator laid out for block products (operator_pairs.c) */
+/* ---- the operator laid out for block products (lanczos_pairs.c) */
 /* Rows taken two at a time in op->order (the identity without one): pair g
  * holds rows 2g and 2g + 1 of P B P^T, where row r is point order[r], as
  * one list of columns (numbered in the same order) with two values per
@@ -44,13 +44,13 @@ void phks__operator_pairs_poly(const phks__operator_pairs *pm, bool avx2,
                               const double *x, const double *z, double *out,
                               double alpha, double gamma, double beta);
 
-/* ---- the Ritz vectors' product (ritz_product.c) */
+/* ---- the Ritz vectors' product (lanczos_ritz.c) */
 /* x = v s: v n x m, s m x k, x n x k, column-major with leading dimensions
  * n, m, n; on `threads` threads, the same bits for any count. */
 phks_status phks__ritz_product(const double *v, size_t n, size_t m, const double *s,
                               size_t k, double *x, unsigned threads, bool avx2);
 
-/* ---- Gram-Schmidt products (block_project.c) */
+/* ---- Gram-Schmidt products (lanczos_gram.c) */
 /* C = V^T W, then W -= V C, where V is n x cnt column-major (leading
  * dimension n), W n x PHKS__PAIR_BLOCK row-major and C cnt x
  * PHKS__PAIR_BLOCK row-major. Bit-identical for any thread count; avx2 from

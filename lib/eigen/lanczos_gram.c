@@ -1,5 +1,5 @@
 /*
- * block_project.c - the Gram-Schmidt products of the eigen-solver: a block
+ * lanczos_gram.c - the Gram-Schmidt products of the eigen-solver: a block
  * W of PHKS__PAIR_BLOCK vectors (row-major, as the operator products leave
  * it) against a basis V of cnt vectors (column-major):
  *     C = V^T W,   W -= V C.
@@ -22,8 +22,8 @@
 #define STRETCH 128
 /* Rows per stretch in C = V^T W, where each thread sweeps its own columns
  * of V: 512 rows are one 4 KB page of a column, so a pass touches each
- * page of V once, not four times (fewer TLB misses: the global pass took
- * 8% less time on psb/48, median of 7 alternating runs). W's 64 KB stay
+ * page of V once, not four times (fewer TLB misses, a measurable gain:
+ * docs/benchmarks.md). W's 64 KB stay
  * in the second-level cache. The sums run over the rows in the same
  * order whatever the stretch, so the results do not change. */
 #define COEF_STRETCH 512

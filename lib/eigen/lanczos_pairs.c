@@ -1,5 +1,5 @@
 /*
- * operator_pairs.c - the operator laid out for fast products on blocks of
+ * lanczos_pairs.c - the operator laid out for fast products on blocks of
  * vectors: the eigen-solver's hot loop.
  *
  * A product of B with a block of PHKS__PAIR_BLOCK vectors (row-major, one
@@ -10,12 +10,14 @@
  * of neighbours (consecutive in the operator's locality order) that share
  * one column list holding the union of their columns, with two values per
  * entry (zero where a column belongs to one row only). A pair reads each
- * block row once for two rows of the result: on PSB meshes the union is
- * 5-15% longer than one row, and a product costs about half as much.
+ * block row once for two rows of the result: the union is only a little
+ * longer than one row, so a product costs about half as much
+ * (docs/benchmarks.md).
  * Visiting points in the locality order (Morton order of their positions)
  * makes consecutive pairs read nearly the same block rows, which the cache
- * then holds. On meshes of 15k vertices the matrix (140 MB) is read from
- * memory at every product, and that bounds the product; up to 65536
+ * then holds. Beyond a few thousand vertices the matrix outgrows the
+ * caches and is read from memory at every product, and that bounds the
+ * product (docs/benchmarks.md); up to 65536
  * points the columns are stored in 16 bits, 18 bytes per entry instead of
  * 20.
  *

@@ -1,13 +1,13 @@
 /*
- * ritz_product.c - X = V S for the eigen-solver's Ritz vectors (V: n x m,
+ * lanczos_ritz.c - X = V S for the eigen-solver's Ritz vectors (V: n x m,
  * S: m x k, X: n x k, all column-major), on the library's threads; also
  * its other products of n-row vectors with a small matrix (the residuals'
  * sketch, Rayleigh-Ritz).
  *
- * Why not the BLAS. This is the solve's largest product (n x 624 x 300 on
- * a 5k-vertex mesh) and, with OPENBLAS_NUM_THREADS=1, the longest serial
- * stretch left in it (0.06 s of 0.6 s). Calling the BLAS from the
- * library's threads instead cost 12% more processor time: the team's
+ * Why not the BLAS. This is the solve's largest product (n x m x k) and,
+ * with OPENBLAS_NUM_THREADS=1, the longest serial stretch left in it.
+ * Calling the BLAS from the library's threads instead cost more processor
+ * time (docs/benchmarks.md): the team's
  * worker is a new thread for each computation, and OpenBLAS sets up its
  * buffers for each new thread that calls it. So a packed product here:
  * S is packed once into panels of NR columns (NR values per row of S,

@@ -10,9 +10,11 @@
 /* ---- persistence (persistence.c) */
 /* phks_persistent_maxima with progress: reports through `at` at the
  * start of each phase and every 65,536 triangles, edges or merges inside
- * one (a count that depends on the mesh and f alone), and returns
- * PHKS_ERROR_CANCELLED, everything freed and *count 0, when the callback
- * asks. The results are those of phks_persistent_maxima, bit for bit. */
+ * one (often enough that a cancellation is noticed promptly on any mesh:
+ * docs/benchmarks.md; a count that depends on the mesh and f alone), and
+ * returns PHKS_ERROR_CANCELLED, everything freed and *count 0, when the
+ * callback asks. The results are those of phks_persistent_maxima, bit for
+ * bit. */
 phks_status phks__persistence_run(const phks_mesh *mesh, const double *f,
                                   size_t max_count, double threshold,
                                   phks__span at, phks_maximum *out,

@@ -1,7 +1,7 @@
 /*
  * persistence.c - persistent maxima of a vertex function and the induced
  * segmentation, by region merging (paper section 3.2 and appendix A,
- * NOTES.md section 4).
+ * docs/method.md section 7).
  *
  * Definitions (they fix every tie, so results never vary between runs):
  * - f has one finite value per vertex. Vertex order: (f, vertex index).
@@ -62,15 +62,16 @@
  * - Once the segmentation is taken, going on merging until the end is
  *   region merging on the quotient graph (survivors as nodes, their
  *   boundary edges as edges), whose pairs are those of the dual sweep
- *   (NOTES.md section 4): the survivors' persistences come from sorting
+ *   (docs/method.md section 7): the survivors' persistences come from sorting
  *   their boundary edges and one union-find sweep over them, instead of
  *   draining heaps that by then hold nearly every edge.
  * Time O(T log T): pairing heaps and the union-find (path halving, the
  * popped root linked under the target's) are O(log T) amortised per
  * operation; the sorts are linear. Memory: 74 bytes per triangle, plus 16
  * per boundary-edge side after the sweep (few for smooth functions, at
- * most 48 per triangle). On a 3.2M-triangle mesh: about 1.4 s for a
- * smooth function, 4-5 s for white noise (many maxima). So the signature
+ * most 48 per triangle). On a large mesh that is long enough to need
+ * progress, longer for a function with many maxima (timings in
+ * docs/benchmarks.md). So the signature
  * path (phks__persistence_run) reports progress inside every phase, every
  * so many steps, and stops at the next report when cancelled; the steps
  * and the results are the same with or without a callback.
@@ -148,13 +149,14 @@ static void merger_release(merger *m)
 }
 
 /* ---- progress: each phase has a share of the stage's span (its share
- * of the time on a 1.6M-vertex mesh and a smooth f) and reports at its
+ * of the time measured on a large mesh and a smooth f) and reports at its
  * start and every so many steps inside: 2^16 for the steps that merge or
- * build heaps (0.1-0.4 us each; in the merging loops a heap pop is a step
- * too), 2^18 for plain passes over triangles or edges (10-30 ns each), so
- * that a cancellation is noticed within tens of
- * milliseconds whatever the mesh size, at about a hundred reports a
- * second. The number of reports depends on the mesh and f alone, never
+ * build heaps (in the merging loops a heap pop is a step too), 2^18 for
+ * plain passes over triangles or edges, which are far cheaper per step,
+ * so that the interval between reports, and the wait for a cancellation
+ * to be noticed, stays short and about the same whatever the mesh size
+ * (the step costs and intervals measured are in docs/benchmarks.md).
+ * The number of reports depends on the mesh and f alone, never
  * on timing. */
 
 enum { PHASE_RANKS, PHASE_INIT, PHASE_SWEEP, PHASE_HEAPS, PHASE_QUEUE,

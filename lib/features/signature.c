@@ -111,8 +111,9 @@ static void areas_range(void *ctx, size_t begin, size_t end)
 /* A_t of every feature point for PHKS_HKS_SCALING_LOCAL_AREA into area
  * (sig->count x scale_count), positions scaled by the unit box's `scale`,
  * the features spread over opt->threads and progress reported
- * (PHKS_STAGE_PERSISTENCE, 0.95 to 1) between batches: on the 1.6M-vertex
- * armadillo this takes about half a second. */
+ * (PHKS_STAGE_PERSISTENCE, 0.95 to 1) between batches: each feature point
+ * scans every vertex, too long on a large mesh to go without reports
+ * (docs/benchmarks.md). */
 static phks_status local_areas(const phks__unit_mesh *um,
                                const phks_options *opt,
                                const phks_signature *sig,

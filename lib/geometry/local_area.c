@@ -5,8 +5,8 @@
  * Why it is wanted: a partial scan keeps one side of every thin part, so
  * heat that spread over both sides of a leg stays on one, and HKS_t at a
  * point the scan shares with its whole doubles once the heat has had time
- * to reach the missing side (docs/retrieval.md measured a median ratio of
- * 1.75 at 5 tau and 3.1 at 1000 tau). The area within the kernel's width
+ * to reach the missing side (docs/retrieval.md has the ratios measured).
+ * The area within the kernel's width
  * sqrt(4 t) halves with it, so HKS_t times that area is the same on a half
  * tube as on the whole one, and 4 pi t on a plane.
  *

@@ -1,5 +1,5 @@
 /*
- * normalize.c - scaling to the unit box, and vertex masses. tau = 0.0002
+ * unit_box.c - scaling to the unit box, and vertex masses. tau = 0.0002
  * only means something on a mesh of unit size, so every shape is scaled
  * before the operator is built.
  */
@@ -7,8 +7,9 @@
 
 #include <math.h>
 
-/* Loops over a million triangles take a tenth of a second: they report
- * progress every STEP triangles or vertices. */
+/* Loops over millions of triangles are long enough to need progress
+ * reports (docs/benchmarks.md): they report every STEP triangles or
+ * vertices. */
 #define STEP ((size_t)1 << 18)
 
 /* Reports fraction i / n of the span, when i is a multiple of STEP above

@@ -4,7 +4,7 @@
  * over the computed eigenpairs (a truncation: at small t the omitted terms
  * are not negligible, which is why eigen_count is an option). With HKS-simp
  * phi_i(x) comes from the extension of the samples' eigenvectors
- * (extend.c).
+ * (simp_extend.c).
  */
 #include "spectrum/simp.h"
 

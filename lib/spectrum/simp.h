@@ -1,7 +1,7 @@
 /*
  * simp.h - HKS-simp, the path for large meshes (paper section 4.1 and
- * appendix B, NOTES.md section 6): declarations shared by simplify.c (the
- * samples), extend.c (back to every
+ * appendix B, docs/method.md section 11): declarations shared by
+ * simp_sample.c (the samples), simp_extend.c (back to every
  * vertex) and spectrum.c, which strings them together with the operator
  * of laplacian.c:
  *
@@ -11,8 +11,9 @@
  *   --Nystrom extension--> HKS at any vertex, computed when asked for.
  *
  * Nothing here holds an n x eigen_count array: the samples' eigenvectors
- * (samples x eigen_count) and O(n) arrays are all that is kept, so a
- * million-vertex mesh costs a few hundred megabytes.
+ * (samples x eigen_count) and O(n) arrays are all that is kept, so memory
+ * grows only linearly with the vertex count (docs/benchmarks.md has the
+ * memory measured on large meshes).
  */
 #ifndef PHKS_SIMP_H
 #define PHKS_SIMP_H
@@ -25,7 +26,7 @@
 /* True when a mesh of n vertices goes through HKS-simp under opt. */
 bool phks__simplify_applies(const phks_options *opt, size_t n);
 
-/* ---- samples (simplify.c) */
+/* ---- samples (simp_sample.c) */
 typedef struct phks__samples {
     size_t count;
     uint32_t *vertex;    /* count mesh vertices, ascending                 */
@@ -63,7 +64,7 @@ phks_status phks__heat_diagonal(const phks__kernel_points *points,
                                 const phks_options *opt, phks__span at,
                                 double *out);
 
-/* ---- extension to every vertex (extend.c) */
+/* ---- extension to every vertex (simp_extend.c) */
 struct phks__extension {
     size_t m;             /* samples                                        */
     uint32_t *vertex;     /* m: mesh vertex of each sample                  */
@@ -97,7 +98,7 @@ phks_status phks__extend_hks(const phks_spectrum *spec, double t,
                             const phks_options *opt, unsigned threads,
                             double *out);
 
-/* ---- shared helpers (simplify.c) */
+/* ---- shared helpers (simp_sample.c) */
 /* e[j] = exp(-d2_j / 4h) (inv4h = 1 / 4h) where the squared distance d2_j
  * from p to point j (x[j], y[j], z[j]) is below r2, else 0; d2 receives the
  * d2_j. Vectorised (AVX2 where the CPU has it, the same bits

@@ -1,6 +1,6 @@
 /*
- * extend.c - from the samples' eigenpairs back to every mesh vertex, by
- * the Nystrom formula (NOTES.md section 6). The eigen-equation of the
+ * simp_extend.c - from the samples' eigenpairs back to every mesh vertex, by
+ * the Nystrom formula (docs/method.md section 11). The eigen-equation of the
  * samples' operator, written at any point w with the samples p within the
  * cut-off, s_w = sum_p A_p W(w,p) and N_w = sum_p A_p W(w,p) phi(p):
  *
@@ -11,7 +11,7 @@
  * phi(p), so the extension interpolates the samples' eigenvectors; between
  * them it is the eigenfunction of the same kernel operator. The samples'
  * operator weighs the kernel between p and q by sqrt(g_p g_q) (the gains
- * of simplify.c), so the sums are taken with weights A_p W(w,p) sqrt(g_p),
+ * of simp_sample.c), so the sums are taken with weights A_p W(w,p) sqrt(g_p),
  * and sqrt(g_w) at w is their kernel average s'_w / s_w:
  *
  *   literal:      phi(w) = N'_w / (s'_w - 4 pi h^2 lambda s_w / s'_w)
@@ -26,8 +26,9 @@
  * samples: the kernel weights of a block form a small dense matrix, and
  * one single-precision matrix product with the samples' eigenvectors gives
  * all N'_w (and s'_w, s_w) at once. Single precision costs about 1e-6
- * relative on values whose method error is 1e-3 and above, and halves the
- * time of what is the largest part of HKS-simp on a million vertices. The
+ * relative on values whose method error is 1e-3 and above, and makes
+ * faster what is the largest part of HKS-simp on large meshes
+ * (docs/benchmarks.md). The
  * one-vertex path (phks__extend_hks_at, for feature vectors) is double.
  */
 #include "spectrum/simp.h"
@@ -51,14 +52,14 @@
  * interior value at a mesh boundary, less at sharp tips) for eigenvalues
  * near density / 4 pi h^2; with the random walk, for eigenvalues near
  * 1 / h. There the formula amplifies sampling errors without bound.
- * Measured on psb/281 (sharp claws) and the bunny (open): 0.1 is best,
- * 0.2 and above flatten the HKS at tips, below 0.05 the extension makes
- * spikes of its own. */
+ * A higher floor flattens the HKS at tips, a lower one lets the extension
+ * make spikes of its own; 0.1 was best on meshes with sharp tips and
+ * with boundaries (docs/benchmarks.md). */
 #define DEN_FLOOR 0.1
-/* Vertices per batch of blocks between progress reports: about a tenth of
- * a second on two loaded cores (the 1.6M-vertex armadillo: about 200
- * batches in 10-20 s). The split never changes the numbers: each block is
- * computed on its own. */
+/* Vertices per batch of blocks between progress reports: small enough
+ * that reports come often and a cancellation is noticed promptly, large
+ * enough that they cost nothing (docs/benchmarks.md). The split never
+ * changes the numbers: each block is computed on its own. */
 #define BATCH_VERTICES 8192
 #define EIGEN_BLOCK 64
 

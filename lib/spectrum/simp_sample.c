@@ -1,7 +1,8 @@
 /*
- * simplify.c - the samples of HKS-simp (paper appendix B, NOTES.md
- * section 6): local maxima of a short-time heat diagonal, with spatial
- * coverage, each carrying the area of the mesh vertices it stands for.
+ * simp_sample.c - the samples of HKS-simp (paper appendix B,
+ * docs/method.md section 11): local maxima of a short-time heat
+ * diagonal, with spatial coverage, each carrying the area of the mesh
+ * vertices it stands for.
  *
  * The paper propagates unit vectors alpha steps with the heat operator
  * H = I - tau D^-1 L of the whole mesh and keeps the local maxima of the
@@ -43,11 +44,10 @@
  *    are (the heat's gathering points, about one sample in six); the
  *    other samples take RELAX_ROUNDS Lloyd steps (each moves to the vertex
  *    nearest the centroid of the vertices nearest to it). Evenly spaced
- *    samples make a better quadrature of the kernel: on a 28k-vertex PSB
- *    bust (psb/305) reduced to 3000 samples, the correlation of HKS at
- *    5 tau with the exact one (literal operator) was 0.88 without the
- *    relaxation and 0.98 with it; pinning every rho-maximum instead of
- *    those at PIN_RADIUS rho cost about 0.01 of it.
+ *    samples make a better quadrature of the kernel, and HKS at 5 tau
+ *    correlates much better with the exact one; pinning every rho-maximum
+ *    instead of those at PIN_RADIUS rho lost a little of that gain
+ *    (docs/benchmarks.md).
  * 5. Masses and gains. Every mesh vertex gives its area to its nearest
  *    sample (Euclidean, ties to the lower sample): Voronoi areas. They are
  *    then adjusted so that the samples reproduce the mesh's own kernel
