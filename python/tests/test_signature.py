@@ -1,4 +1,5 @@
 """Signatures: caller numbering, arrays vs files, options, codec, scores."""
+import gzip
 import threading
 
 import numpy as np
@@ -208,3 +209,22 @@ def test_the_gil_is_released_during_a_signature():
     # length of the call.
     assert elapsed > 0.1
     assert max(gaps) < elapsed / 2
+
+
+def test_a_shared_real_mesh(shared_meshes):
+    """psb/1.off.gz (a human, 4.7k vertices): the file's own numbering,
+    read here with gzip and numpy, agrees with the signature's."""
+    path = shared_meshes + "/psb/1.off.gz"
+    with gzip.open(path, "rt") as text:
+        tokens = text.read().split()
+    assert tokens[0] == "OFF"
+    n, m = int(tokens[1]), int(tokens[2])
+    v = np.array(tokens[4:4 + 3 * n], dtype=float).reshape(n, 3)
+    f = np.array(tokens[4 + 3 * n:4 + 3 * n + 4 * m],
+                 dtype=np.int64).reshape(m, 4)[:, 1:]
+    from_file = phks.signature(phks.load(path))
+    from_arrays = phks.signature(phks.Mesh(v, f))
+    assert_same_signature(from_file, from_arrays)
+    assert len(from_file) == 15
+    np.testing.assert_array_equal(v[from_file.vertices], from_file.positions)
+    assert phks.score(from_file, from_arrays) == 0
