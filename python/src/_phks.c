@@ -966,8 +966,13 @@ static PyObject *Signature_encode(SignatureObject *self, PyObject *unused)
         Py_DECREF(bytes);
         return raise_status(st);
     }
-    if (written != size && _PyBytes_Resize(&bytes, (Py_ssize_t)written) < 0)
+    if (written != size) { /* phks.h: encoded_size is exact */
+        Py_DECREF(bytes);
+        PyErr_SetString(PyExc_SystemError,
+                        "phks_signature_encode wrote another size than "
+                        "phks_signature_encoded_size gave");
         return NULL;
+    }
     return bytes;
 }
 
