@@ -488,9 +488,8 @@ static PyObject *py_default_options(PyObject *self, PyObject *unused)
 static PyObject *view_array(PyObject *owner, const void *data, int nd,
                             npy_intp *dims, int type)
 {
-    if (!data) {
-        for (int i = 0; i < nd; i++)
-            dims[i] = i == 0 ? 0 : dims[i];
+    if (!data) { /* the library gives NULL arrays for a count of 0 */
+        dims[0] = 0;
         return PyArray_ZEROS(nd, dims, type, 0);
     }
     PyObject *arr = PyArray_New(&PyArray_Type, nd, dims, type, NULL,
