@@ -1010,6 +1010,56 @@ static PyObject *py_decode(PyObject *self, PyObject *args, PyObject *kwargs)
     return signature_decode(args, kwargs, "y*|O:decode");
 }
 
+/* Pickling (multiprocessing pools, caches): the blob, and the caller's
+ * numbering, which the blob does not hold. */
+static PyObject *Signature_reduce(SignatureObject *self, PyObject *unused)
+{
+    PyObject *restore = NULL, *blob = NULL, *result = NULL;
+    restore = PyObject_GetAttrString((PyObject *)Py_TYPE(self), "_restore");
+    if (restore)
+        blob = Signature_encode(self, NULL);
+    if (blob)
+        result = Py_BuildValue("(O(OO))", restore, blob,
+                               self->caller_vertices ? self->caller_vertices
+                                                     : Py_None);
+    Py_XDECREF(restore);
+    Py_XDECREF(blob);
+    return result;
+}
+
+static PyObject *Signature_restore(PyObject *cls, PyObject *args)
+{
+    Py_buffer data;
+    PyObject *vertices;
+    if (!PyArg_ParseTuple(args, "y*O:_restore", &data, &vertices))
+        return NULL;
+    phks_signature *sig = NULL;
+    phks_status st = phks_signature_decode(data.buf, (size_t)data.len, &sig);
+    PyBuffer_Release(&data);
+    if (st != PHKS_OK)
+        return raise_status(st);
+    SignatureObject *self = (SignatureObject *)signature_wrap(sig, NULL);
+    if (!self || vertices == Py_None)
+        return (PyObject *)self;
+    /* A private copy, read-only like the one signature_wrap makes. */
+    PyArrayObject *arr = (PyArrayObject *)PyArray_FROMANY(
+        vertices, NPY_UINT32, 1, 1, NPY_ARRAY_IN_ARRAY | NPY_ARRAY_ENSURECOPY);
+    if (!arr) {
+        Py_DECREF(self);
+        return NULL;
+    }
+    if ((size_t)PyArray_DIM(arr, 0) != phks_signature_feature_count(self->sig)) {
+        PyErr_SetString(PyExc_ValueError,
+                        "_restore: one vertex per feature expected");
+        Py_DECREF(arr);
+        Py_DECREF(self);
+        return NULL;
+    }
+    PyArray_CLEARFLAGS(arr, NPY_ARRAY_WRITEABLE);
+    self->caller_vertices = (PyObject *)arr;
+    return (PyObject *)self;
+}
+
 static PyObject *Signature_repr(SignatureObject *self)
 {
     return PyUnicode_FromFormat(
@@ -1027,6 +1077,10 @@ static PyMethodDef Signature_methods[] = {
      "Signature.decode(data, mesh=None): a signature from a blob. With the "
      "mesh it was computed on, .vertices is in the caller's numbering; "
      "without, it is None (see .mesh_vertices)."},
+    {"__reduce__", (PyCFunction)Signature_reduce, METH_NOARGS,
+     "Pickles as the encoded blob and the caller's vertex numbering."},
+    {"_restore", (PyCFunction)Signature_restore, METH_VARARGS | METH_CLASS,
+     "Unpickles (see __reduce__)."},
     {NULL, NULL, 0, NULL}};
 
 static PyGetSetDef Signature_getset[] = {

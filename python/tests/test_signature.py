@@ -123,6 +123,18 @@ def test_encode_decode(creature_mesh, creature_signature):
         phks.decode("not bytes")
 
 
+def test_pickle_keeps_the_callers_numbering(creature_mesh,
+                                            creature_signature):
+    import pickle
+    sig = creature_signature
+    back = pickle.loads(pickle.dumps(sig))
+    assert_same_signature(back, sig)
+    np.testing.assert_array_equal(back.vertices, sig.vertices)
+    decoded = pickle.loads(pickle.dumps(phks.decode(sig.encode())))
+    assert decoded.vertices is None
+    assert_same_signature(decoded, sig)
+
+
 def l1_nearest(a, b):
     """Independent brute force: nearest b (L1) for each row of a."""
     d = np.abs(a[:, None, :] - b[None, :, :]).sum(axis=2)
