@@ -1,0 +1,242 @@
+"""Signatures: caller numbering, arrays vs files, options, codec, scores."""
+import gzip
+import threading
+
+import numpy as np
+import pytest
+
+import phks
+from conftest import assert_same_signature
+from shapes import creature, with_unused, write_off
+
+
+def test_signature_arrays(creature_signature, creature_arrays):
+    sig = creature_signature
+    v, _ = creature_arrays
+    k = len(sig)
+    assert 2 <= k <= 15
+    assert sig.vertices.shape == (k,) and sig.vertices.dtype == np.uint32
+    assert sig.positions.shape == (k, 3)
+    assert sig.vectors.shape == (k, 15) and sig.vector_length == 15
+    # Features come most persistent first; the first is never merged.
+    p = sig.persistence
+    assert np.isinf(p[0]) and np.all(np.diff(p[1:]) <= 0)
+    # Positions are the input coordinates of the feature vertices.
+    np.testing.assert_array_equal(sig.positions, v[sig.vertices])
+
+
+def test_vertices_are_in_the_callers_numbering(tmp_path, creature_arrays,
+                                               creature_signature):
+    v, f = creature_arrays
+    v2, f2, where = with_unused(v, f)
+    from_arrays = phks.signature(phks.Mesh(v2, f2))
+    path = tmp_path / "creature.off"
+    write_off(path, v2, f2)
+    from_file = phks.signature(phks.load(path))
+    # The same features as on the mesh without unused vertices, numbered
+    # as the caller's arrays and the file number them.
+    assert_same_signature(from_arrays, creature_signature)
+    assert_same_signature(from_file, creature_signature)
+    np.testing.assert_array_equal(from_arrays.vertices,
+                                  where[creature_signature.vertices])
+    np.testing.assert_array_equal(from_file.vertices, from_arrays.vertices)
+    np.testing.assert_array_equal(v2[from_file.vertices],
+                                  from_file.positions)
+    # mesh_vertices is the cleaned mesh's numbering.
+    np.testing.assert_array_equal(from_file.mesh_vertices,
+                                  creature_signature.vertices)
+
+
+def test_options_are_keywords_with_the_c_defaults(creature_mesh,
+                                                  creature_signature):
+    d = phks.default_options()
+    assert d["eigen_count"] == 300 and d["tau"] == 0.0002
+    assert d["cutoff"] == 3.5 and d["feature_count"] == 15
+    assert d["scales"] == (5, 20, 40, 60, 100, 150, 200, 300, 400, 500, 600,
+                           700, 800, 900, 1000)
+    assert d["operator_kind"] == "random_walk" and d["box"] == "principal"
+    assert d["hks_scaling"] == "local_area" and d["solver"] == "auto"
+    assert d["boundary_margin"] == 2 and d["tolerance"] == 1e-10
+    assert d["simplify_above"] == 25000 and d["simplify_target"] == 10000
+    # Every default spelled out gives the default signature.
+    assert_same_signature(phks.signature(creature_mesh, **d),
+                          creature_signature)
+    assert creature_signature.options == d
+    # Enums as strings or ints.
+    a = phks.signature(creature_mesh, operator_kind="literal",
+                       hks_scaling="none", feature_count=5,
+                       scales=[5, 50, 500])
+    b = phks.signature(creature_mesh, operator_kind=0, hks_scaling=0,
+                       feature_count=5, scales=(5.0, 50.0, 500.0),
+                       scale_count=3)
+    assert_same_signature(a, b)
+    assert len(a) <= 5 and a.vector_length == 3
+    assert a.options["operator_kind"] == "literal"
+    assert a.options["scales"] == (5, 50, 500)
+
+
+def test_bad_options(creature_mesh):
+    with pytest.raises(TypeError):
+        phks.signature(creature_mesh, colour="red")
+    with pytest.raises(ValueError):
+        phks.signature(creature_mesh, box="round")
+    with pytest.raises(ValueError):
+        phks.signature(creature_mesh, eigen_count=-1)
+    with pytest.raises(TypeError):
+        phks.signature(creature_mesh, eigen_count=2.5)
+    with pytest.raises(ValueError):
+        phks.signature(creature_mesh, scales=[1] * 33)
+    with pytest.raises(ValueError):
+        phks.signature(creature_mesh, scales=[1, 2], scale_count=3)
+    # Values only the library checks: phks.Error naming the field.
+    for bad in ({"tau": -1.0}, {"tau": float("nan")}, {"cutoff": 0.5},
+                {"solver": 9}, {"scales": [5, float("inf")]}):
+        with pytest.raises(phks.Error) as e:
+            phks.signature(creature_mesh, **bad)
+        assert e.value.status == phks.Status.INVALID_ARGUMENT
+        assert list(bad)[0] in e.value.message
+
+
+def test_encode_decode(creature_mesh, creature_signature):
+    sig = creature_signature
+    blob = sig.encode()
+    assert isinstance(blob, bytes)
+    back = phks.Signature.decode(blob)
+    assert_same_signature(back, sig)
+    np.testing.assert_array_equal(back.positions, sig.positions)
+    assert back.vertices is None  # no mesh: only the cleaned numbering
+    np.testing.assert_array_equal(back.mesh_vertices, sig.mesh_vertices)
+    with_mesh = phks.decode(memoryview(blob), mesh=creature_mesh)
+    np.testing.assert_array_equal(with_mesh.vertices, sig.vertices)
+    assert back.options == sig.options
+    assert phks.score(back, sig) == 0
+
+    damaged = bytearray(blob)
+    damaged[len(blob) // 2] ^= 0x10
+    with pytest.raises(phks.Error) as e:
+        phks.decode(bytes(damaged))
+    assert e.value.status == phks.Status.CORRUPT
+    with pytest.raises(phks.Error) as e:
+        phks.decode(blob[:-7])
+    assert e.value.status in (phks.Status.TRUNCATED, phks.Status.CORRUPT)
+    with pytest.raises(TypeError):
+        phks.decode("not bytes")
+
+
+def test_pickle_keeps_the_callers_numbering(creature_mesh,
+                                            creature_signature):
+    import pickle
+    sig = creature_signature
+    back = pickle.loads(pickle.dumps(sig))
+    assert_same_signature(back, sig)
+    np.testing.assert_array_equal(back.vertices, sig.vertices)
+    decoded = pickle.loads(pickle.dumps(phks.decode(sig.encode())))
+    assert decoded.vertices is None
+    assert_same_signature(decoded, sig)
+
+
+def l1_nearest(a, b):
+    """Independent brute force: nearest b (L1) for each row of a."""
+    d = np.abs(a[:, None, :] - b[None, :, :]).sum(axis=2)
+    return d.argmin(axis=1), d.min(axis=1)
+
+
+def test_score_and_match(creature_signature, other_signature):
+    a, b = creature_signature, other_signature
+    assert phks.score(a, a) == 0
+    s = phks.score(a, b)
+    # Symmetric up to the order of the sum (the last bit).
+    assert s > 0 and s == pytest.approx(phks.score(b, a), rel=1e-14)
+    ia, da = l1_nearest(a.vectors, b.vectors)
+    ib, db = l1_nearest(b.vectors, a.vectors)
+    assert s == pytest.approx(da.sum() + db.sum(), rel=1e-12)
+
+    m = phks.match(a, b)
+    assert m.score == s
+    na, nb = len(a), len(b)
+    assert len(m.feature_a) == na + nb
+    np.testing.assert_array_equal(m.from_a, [True] * na + [False] * nb)
+    np.testing.assert_array_equal(m.feature_a[:na], np.arange(na))
+    np.testing.assert_array_equal(m.feature_b[:na], ia)
+    np.testing.assert_array_equal(m.feature_b[na:], np.arange(nb))
+    np.testing.assert_array_equal(m.feature_a[na:], ib)
+    np.testing.assert_allclose(m.distance, np.concatenate([da, db]),
+                               rtol=1e-12)
+    score, fa, fb, dist, from_a = m  # a named tuple
+    assert score == s
+
+
+def test_incompatible_signatures(creature_mesh, creature_signature):
+    other = phks.signature(creature_mesh, operator_kind="literal")
+    with pytest.raises(phks.Error) as e:
+        phks.score(creature_signature, other)
+    assert e.value.status == phks.Status.INCOMPATIBLE
+    with pytest.raises(phks.Error) as e:
+        phks.match(other, creature_signature)
+    assert e.value.status == phks.Status.INCOMPATIBLE
+    with pytest.raises(TypeError):
+        phks.score(creature_signature, "x")
+
+
+def test_threads_compute_the_same_signature(creature_mesh,
+                                            creature_signature):
+    out = [None] * 3
+
+    def run(i):
+        out[i] = phks.signature(creature_mesh, threads=1)
+
+    workers = [threading.Thread(target=run, args=(i,)) for i in range(3)]
+    for w in workers:
+        w.start()
+    for w in workers:
+        w.join()
+    for sig in out:
+        assert_same_signature(sig, creature_signature)
+
+
+def test_the_gil_is_released_during_a_signature():
+    mesh = phks.Mesh(*creature(4, seed=2))
+    done = threading.Event()
+    result = []
+
+    def run():
+        result.append(phks.signature(mesh, threads=1))
+        done.set()
+
+    worker = threading.Thread(target=run)
+    gaps, last = [], None
+    import time
+    start = time.perf_counter()
+    worker.start()
+    while not done.is_set():
+        now = time.perf_counter()
+        if last is not None:
+            gaps.append(now - last)
+        last = now
+        time.sleep(0.001)
+    worker.join()
+    elapsed = time.perf_counter() - start
+    assert result and len(result[0]) > 0
+    # This thread kept running while the other computed: no pause near the
+    # length of the call.
+    assert elapsed > 0.1
+    assert max(gaps) < elapsed / 2
+
+
+def test_a_shared_real_mesh(shared_meshes):
+    """psb/1.off.gz (a human, 4.7k vertices): the file's own numbering,
+    read here with gzip and numpy, agrees with the signature's."""
+    path = shared_meshes + "/psb/1.off.gz"
+    with gzip.open(path, "rt") as text:
+        tokens = text.read().split()
+    assert tokens[0] == "OFF"
+    n, m = int(tokens[1]), int(tokens[2])
+    v = np.array(tokens[4:4 + 3 * n], dtype=float).reshape(n, 3)
+    f = np.array(tokens[4 + 3 * n:4 + 3 * n + 4 * m],
+                 dtype=np.int64).reshape(m, 4)[:, 1:]
+    from_file = phks.signature(phks.load(path))
+    from_arrays = phks.signature(phks.Mesh(v, f))
+    assert_same_signature(from_file, from_arrays)
+    assert len(from_file) == 15
+    np.testing.assert_array_equal(v[from_file.vertices], from_file.positions)
+    assert phks.score(from_file, from_arrays) == 0
