@@ -45,7 +45,7 @@ static double nearest_in_cell(const phks__grid *g, const double *points,
     if (x < 0 || y < 0 || z < 0 || x >= (long)g->dims[0] ||
         y >= (long)g->dims[1] || z >= (long)g->dims[2])
         return best;
-    size_t cell = ((size_t)z * g->dims[1] + (size_t)y) * g->dims[0] + (size_t)x;
+    size_t cell = phks__grid_cell_index(g, (size_t)x, (size_t)y, (size_t)z);
     for (size_t k = g->cell_start[cell]; k < g->cell_start[cell + 1]; k++) {
         const double *p = points + 3 * (size_t)g->points[k];
         double dx = p[0] - q[0], dy = p[1] - q[1], dz = p[2] - q[2];

@@ -101,6 +101,12 @@ phks_status phks__grid_build(const double *xyz, size_t n, double scale,
 void phks__grid_release(phks__grid *grid);
 /* The cell of the (scaled) point p, clamped to the grid. */
 void phks__grid_cell(const phks__grid *grid, const double p[3], size_t c[3]);
+/* The index of cell (x, y, z) in cell_start. */
+static inline size_t phks__grid_cell_index(const phks__grid *grid, size_t x,
+                                           size_t y, size_t z)
+{
+    return (z * grid->dims[1] + y) * grid->dims[0] + x;
+}
 /* The points of cell c and the 26 around it as ranges [first, last) of
  * grid->points, in a fixed order (z, then y; x ascending within each):
  * returns how many ranges (at most 9, fewer at the grid's faces). */

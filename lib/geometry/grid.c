@@ -48,7 +48,7 @@ static size_t cell_of(const phks__grid *g, const double *xyz, double scale)
     double p[3] = {xyz[0] * scale, xyz[1] * scale, xyz[2] * scale};
     size_t c[3];
     phks__grid_cell(g, p, c);
-    return (c[2] * g->dims[1] + c[1]) * g->dims[0] + c[0];
+    return phks__grid_cell_index(g, c[0], c[1], c[2]);
 }
 
 phks_status phks__grid_build(const double *xyz, size_t n, double scale,

@@ -131,14 +131,6 @@ phks_status phks__extension_create(phks_spectrum *spec,
     return PHKS_OK;
 }
 
-static void cell_coords(const phks__grid *g, const double *p, size_t c[3])
-{
-    for (int d = 0; d < 3; d++) {
-        double x = floor((p[d] - g->origin[d]) / g->cell);
-        c[d] = x < 0 ? 0 : x >= (double)g->dims[d] ? g->dims[d] - 1 : (size_t)x;
-    }
-}
-
 /* The decay exp(-t lambda_i) and the term of lambda_i in the denominator:
  * 4 pi h^2 lambda_i (literal: subtracted from s_w) or h lambda_i (random
  * walk: s_w times one minus it). */
@@ -164,34 +156,31 @@ double phks__extend_hks_at(const phks_spectrum *spec, double t, size_t v)
     const phks__grid *g = &ext->grid;
     const double *p = ext->vertex_xyz + 3 * v;
     const double r2 = ext->radius * ext->radius, inv4h = 1 / (4 * ext->h);
-    size_t c[3], k = spec->count;
-    cell_coords(g, p, c);
+    size_t c[3], range[9][2], k = spec->count;
+    phks__grid_cell(g, p, c);
+    size_t runs = phks__grid_neighbourhood(g, c, range);
     double sum = 0;
     /* Eigenpairs in blocks, so that no allocation is needed: the kernel
      * weights are recomputed for each block. */
     for (size_t i0 = 0; i0 < k; i0 += EIGEN_BLOCK) {
         size_t nb = k - i0 < EIGEN_BLOCK ? k - i0 : EIGEN_BLOCK;
         double acc[EIGEN_BLOCK] = {0}, s = 0, sg = 0;
-        for (size_t z = c[2] ? c[2] - 1 : 0; z <= c[2] + 1 && z < g->dims[2]; z++)
-            for (size_t y = c[1] ? c[1] - 1 : 0; y <= c[1] + 1 && y < g->dims[1]; y++)
-                for (size_t x = c[0] ? c[0] - 1 : 0; x <= c[0] + 1 && x < g->dims[0]; x++) {
-                    size_t cell = (z * g->dims[1] + y) * g->dims[0] + x;
-                    for (size_t q = g->cell_start[cell]; q < g->cell_start[cell + 1]; q++) {
-                        uint32_t smp = g->points[q];
-                        const double *r = ext->sample_xyz + 3 * (size_t)smp;
-                        double dx = r[0] - p[0], dy = r[1] - p[1], dz = r[2] - p[2];
-                        double d2 = dx * dx + dy * dy + dz * dz;
-                        if (d2 >= r2)
-                            continue;
-                        double w = ext->area[smp] * phks__exp_neg(d2 * inv4h);
-                        double wg = w * ext->root_gain[smp];
-                        const double *row = ext->rows + (size_t)smp * k + i0;
-                        s += w;
-                        sg += wg;
-                        for (size_t j = 0; j < nb; j++)
-                            acc[j] += wg * row[j];
-                    }
-                }
+        for (size_t run = 0; run < runs; run++)
+            for (size_t q = range[run][0]; q < range[run][1]; q++) {
+                uint32_t smp = g->points[q];
+                const double *r = ext->sample_xyz + 3 * (size_t)smp;
+                double dx = r[0] - p[0], dy = r[1] - p[1], dz = r[2] - p[2];
+                double d2 = dx * dx + dy * dy + dz * dz;
+                if (d2 >= r2)
+                    continue;
+                double w = ext->area[smp] * phks__exp_neg(d2 * inv4h);
+                double wg = w * ext->root_gain[smp];
+                const double *row = ext->rows + (size_t)smp * k + i0;
+                s += w;
+                sg += wg;
+                for (size_t j = 0; j < nb; j++)
+                    acc[j] += wg * row[j];
+            }
         if (!(sg > 0))
             return 0;
         for (size_t j = 0; j < nb; j++) {
@@ -294,12 +283,12 @@ static size_t candidates_of_box(const struct phks__extension *ext,
         elo[d] = lo[d] - r;
         ehi[d] = hi[d] + r;
     }
-    cell_coords(g, elo, a);
-    cell_coords(g, ehi, b);
+    phks__grid_cell(g, elo, a);
+    phks__grid_cell(g, ehi, b);
     for (size_t z = a[2]; z <= b[2]; z++)
         for (size_t y = a[1]; y <= b[1]; y++)
             for (size_t x = a[0]; x <= b[0]; x++) {
-                size_t cell = (z * g->dims[1] + y) * g->dims[0] + x;
+                size_t cell = phks__grid_cell_index(g, x, y, z);
                 for (size_t q = g->cell_start[cell]; q < g->cell_start[cell + 1]; q++) {
                     uint32_t smp = g->points[q];
                     const double *p = ext->sample_xyz + 3 * (size_t)smp;

@@ -110,11 +110,6 @@ void phks__samples_release(phks__samples *s)
  * Grid helpers (cells as grid.c buckets them)
  * --------------------------------------------------------------------- */
 
-static size_t cell_index(const phks__grid *g, size_t x, size_t y, size_t z)
-{
-    return (z * g->dims[1] + y) * g->dims[0] + x;
-}
-
 static double dist2(const double *a, const double *b)
 {
     double dx = a[0] - b[0], dy = a[1] - b[1], dz = a[2] - b[2];
@@ -623,7 +618,7 @@ static void nearest_rows(void *ctx, size_t begin, size_t end)
                     bool face = dz == 0 || dz == 2 * k || dy == 0 || dy == 2 * k;
                     for (size_t dx = 0; dx <= 2 * k; dx += face ? 1 : 2 * k) {
                         if (c[0] + dx >= k && c[0] + dx - k < g->dims[0]) {
-                            size_t cell = cell_index(g, c[0] + dx - k, y, z);
+                            size_t cell = phks__grid_cell_index(g, c[0] + dx - k, y, z);
                             for (size_t q = g->cell_start[cell];
                                  q < g->cell_start[cell + 1]; q++) {
                                 uint32_t s = g->points[q];
