@@ -190,17 +190,24 @@ START_TEST(incompatible_options_refuse_to_score)
     phks_signature *a = make(3, 6), *b = make(3, 7);
     double score;
     ck_assert_int_eq(phks_score(a, b, &score), PHKS_OK);
+    /* Each refusal names the option and both values. */
     b->options.scales[14] = 999;
     ck_assert_int_eq(phks_score(a, b, &score), PHKS_ERROR_INCOMPATIBLE);
+    ck_assert_ptr_nonnull(strstr(phks_last_error_message(),
+                                 "scales[14] 1000 against 999"));
     b->options.scales[14] = a->options.scales[14];
     b->options.operator_kind = PHKS_OPERATOR_LITERAL;
     ck_assert_int_eq(phks_score(a, b, &score), PHKS_ERROR_INCOMPATIBLE);
+    ck_assert_ptr_nonnull(strstr(phks_last_error_message(), "operator_kind"));
     b->options.operator_kind = a->options.operator_kind;
     b->options.boundary_margin = 0;
     ck_assert_int_eq(phks_score(a, b, &score), PHKS_ERROR_INCOMPATIBLE);
+    ck_assert_ptr_nonnull(strstr(phks_last_error_message(),
+                                 "boundary_margin 2 against 0"));
     b->options.boundary_margin = a->options.boundary_margin;
     b->options.hks_scaling = PHKS_HKS_SCALING_MEAN;
     ck_assert_int_eq(phks_score(a, b, &score), PHKS_ERROR_INCOMPATIBLE);
+    ck_assert_ptr_nonnull(strstr(phks_last_error_message(), "hks_scaling"));
     b->options.hks_scaling = a->options.hks_scaling;
     b->options.simplify_above = 7; /* does not change what is compared */
     ck_assert_int_eq(phks_score(a, b, &score), PHKS_OK);

@@ -51,6 +51,16 @@ phks_status phks__options_resolve(const phks_options *user, phks_options *out);
 phks_status phks__progress(const phks_options *opt, phks_stage stage,
                           double fraction);
 
+/* The first field that shapes a signature's numbers (options.c lists
+ * them) and differs between a and b, or NULL when none does; with
+ * spectrum_only, only the fields a spectrum's eigenpairs depend on. When
+ * detail is not NULL it receives "NAME A against B" (cut to size). */
+const char *phks__options_difference(const phks_options *a,
+                                     const phks_options *b, bool spectrum_only,
+                                     char *detail, size_t size);
+/* True when two option sets give comparable signatures. */
+bool phks__options_comparable(const phks_options *a, const phks_options *b);
+
 /* Where a long step reports: the fractions done .. done + span of `stage`,
  * through opt's callback (opt NULL: nowhere). A caller hands a step its
  * part of its own span, so nested steps report one rising sequence. */

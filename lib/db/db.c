@@ -718,10 +718,13 @@ static phks_status add_entries(phks_db *db, const char *fn, bool batch,
         phks_status st = check_entry(where, &entries[i]);
         if (st != PHKS_OK)
             return st;
-        if (!phks__options_comparable(&entries[i].signature->options,
-                                     &entries[0].signature->options))
+        char detail[128];
+        if (phks__options_difference(&entries[i].signature->options,
+                                     &entries[0].signature->options, false,
+                                     detail, sizeof detail))
             return phks__fail(PHKS_ERROR_INCOMPATIBLE,
-                             "%s: made with other options than entry 0", where);
+                             "%s: made with other options than entry 0 (%s)",
+                             where, detail);
     }
     if (count == 0)
         return PHKS_OK;
@@ -733,11 +736,14 @@ static phks_status add_entries(phks_db *db, const char *fn, bool batch,
     const phks_options *mine = &entries[0].signature->options;
     bool set = false;
     phks_status st = PHKS_OK;
-    if (db->has_options && !phks__options_comparable(mine, &db->options))
+    char detail[128];
+    if (db->has_options &&
+        phks__options_difference(mine, &db->options, false, detail,
+                                 sizeof detail))
         st = phks__fail(PHKS_ERROR_INCOMPATIBLE,
                        "%s: the signature was made with other options than "
-                       "the database's",
-                       fn);
+                       "the database's (%s)",
+                       fn, detail);
     if (st == PHKS_OK && (st = begin(db, true)) == PHKS_OK) {
         st = settle_options(db, fn, mine, &set);
         if (st == PHKS_OK)
@@ -990,11 +996,14 @@ phks_status phks_db_query(phks_db *db, const phks_signature *query, size_t k,
     for (;;) {
         pthread_mutex_lock(&db->lock);
         phks_status st = refresh(db);
+        char detail[128];
         if (st == PHKS_OK && db->has_options &&
-            !phks__options_comparable(&query->options, &db->options))
+            phks__options_difference(&query->options, &db->options, false,
+                                     detail, sizeof detail))
             st = phks__fail(PHKS_ERROR_INCOMPATIBLE,
                            "phks_db_query: the query was made with other "
-                           "options than the database's");
+                           "options than the database's (%s)",
+                           detail);
         pthread_mutex_unlock(&db->lock);
         if (st != PHKS_OK)
             return st;

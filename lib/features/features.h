@@ -34,8 +34,4 @@ struct phks_signature {
 /* An empty signature with room for count features of length values. */
 phks_status phks__signature_alloc(size_t count, size_t length,
                                  phks_signature **out);
-/* True when two option sets give comparable signatures: every field that
- * changes the numbers is equal (not the solver, threads or callbacks). */
-bool phks__options_comparable(const phks_options *a, const phks_options *b);
-
 #endif /* PHKS_FEATURES_H */

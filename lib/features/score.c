@@ -37,10 +37,13 @@ static phks_status check_pair(const phks_signature *a, const phks_signature *b,
 {
     if (!a || !b)
         return phks__fail(PHKS_ERROR_INVALID_ARGUMENT, "%s: NULL signature", fn);
-    if (!phks__options_comparable(&a->options, &b->options))
+    char detail[128];
+    if (phks__options_difference(&a->options, &b->options, false, detail,
+                                 sizeof detail))
         return phks__fail(PHKS_ERROR_INCOMPATIBLE,
-                         "%s: the signatures were made with different options",
-                         fn);
+                         "%s: the signatures were made with different options "
+                         "(%s)",
+                         fn, detail);
     return PHKS_OK;
 }
 

@@ -40,21 +40,6 @@ phks_status phks__signature_alloc(size_t count, size_t length,
     return PHKS_OK;
 }
 
-bool phks__options_comparable(const phks_options *a, const phks_options *b)
-{
-    if (a->tau != b->tau || a->cutoff != b->cutoff ||
-        a->eigen_count != b->eigen_count || a->feature_count != b->feature_count ||
-        a->scale_count != b->scale_count || a->feature_scale != b->feature_scale ||
-        a->operator_kind != b->operator_kind || a->box != b->box ||
-        a->boundary_margin != b->boundary_margin ||
-        a->hks_scaling != b->hks_scaling)
-        return false;
-    for (uint32_t i = 0; i < a->scale_count; i++)
-        if (a->scales[i] != b->scales[i])
-            return false;
-    return true;
-}
-
 /* The spectrum must come from the same operator as the options describe;
  * anything else would silently mix incomparable numbers. */
 static phks_status check_spectrum(const phks_mesh *mesh,
@@ -66,13 +51,13 @@ static phks_status check_spectrum(const phks_mesh *mesh,
                          "phks_signature_from_spectrum: the spectrum has %zu "
                          "vertices, the mesh %zu",
                          spec->n, mesh->vertex_count);
-    const phks_options *s = &spec->options;
-    if (s->tau != opt->tau || s->cutoff != opt->cutoff ||
-        s->eigen_count != opt->eigen_count ||
-        s->operator_kind != opt->operator_kind || s->box != opt->box)
+    char detail[128];
+    if (phks__options_difference(opt, &spec->options, true, detail,
+                                 sizeof detail))
         return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "phks_signature_from_spectrum: the options differ "
-                         "from those the spectrum was computed with");
+                         "from those the spectrum was computed with (%s)",
+                         detail);
     return PHKS_OK;
 }
 
