@@ -124,19 +124,26 @@ static double dist2(const double *a, const double *b)
  * = d2_j. No branches, so the loop vectorises; built twice,
  * for the baseline instruction set and for AVX2 (chosen at run time). C11
  * mode contracts nothing into FMAs, so both give the same bits. */
+/* The point and the kernel a row is taken for, passed by value so that
+ * the loop sees plain scalars. */
+typedef struct {
+    double px, py, pz, r2, inv4h;
+} row_query;
+
 #define KERNEL_ROW_BODY                                                       \
+    const double px = q.px, py = q.py, pz = q.pz, r2 = q.r2, inv4h = q.inv4h; \
     for (size_t j = 0; j < count; j++) {                                      \
         double dx = x[j] - px, dy = y[j] - py, dz = z[j] - pz;                \
         double dd = dx * dx + dy * dy + dz * dz;                              \
         double inside = dd < r2;                                              \
-        e[j] = phks__exp_neg((dd < r2 ? dd : r2) * inv4h) * inside;            \
+        e[j] = phks__exp_neg((dd < r2 ? dd : r2) * inv4h) * inside;           \
         d2[j] = dd;                                                           \
     }
 
 static void kernel_row_base(const double *restrict x, const double *restrict y,
-                            const double *restrict z, size_t count, double px,
-                            double py, double pz, double r2, double inv4h,
-                            double *restrict e, double *restrict d2)
+                            const double *restrict z, size_t count,
+                            row_query q, double *restrict e,
+                            double *restrict d2)
 {
     KERNEL_ROW_BODY
 }
@@ -144,9 +151,8 @@ static void kernel_row_base(const double *restrict x, const double *restrict y,
 #if PHKS__HAVE_AVX2
 __attribute__((target("avx2,fma"))) static void
 kernel_row_avx2(const double *restrict x, const double *restrict y,
-                const double *restrict z, size_t count, double px, double py,
-                double pz, double r2, double inv4h, double *restrict e,
-                double *restrict d2)
+                const double *restrict z, size_t count, row_query q,
+                double *restrict e, double *restrict d2)
 {
     KERNEL_ROW_BODY
 }
@@ -156,13 +162,14 @@ void phks__kernel_row(const double *x, const double *y, const double *z,
                      size_t count, const double p[3], double r2, double inv4h,
                      double *e, double *d2)
 {
+    row_query q = {p[0], p[1], p[2], r2, inv4h};
 #if PHKS__HAVE_AVX2
     if (phks__cpu_avx2()) {
-        kernel_row_avx2(x, y, z, count, p[0], p[1], p[2], r2, inv4h, e, d2);
+        kernel_row_avx2(x, y, z, count, q, e, d2);
         return;
     }
 #endif
-    kernel_row_base(x, y, z, count, p[0], p[1], p[2], r2, inv4h, e, d2);
+    kernel_row_base(x, y, z, count, q, e, d2);
 }
 
 /* A point set bucketed by a grid with cells of the kernel radius, stored
