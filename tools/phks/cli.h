@@ -23,6 +23,18 @@ int cli_db(int argc, char **argv, const phks_options *options);
 int cli_db_add(int argc, char **argv, const phks_options *options);
 int cli_bench(int argc, char **argv, const phks_options *options);
 
+/* ---- global settings (cli_util.c), set by phks.c from the global options */
+/* --progress (1), --no-progress (0), or neither (-1: when stderr is a
+ * terminal). */
+extern int cli_progress_mode;
+/* --object NAME: the OBJ object or group to read, or NULL for all. */
+extern const char *cli_object;
+/* The shaping global options given on the command line (CLI_SET_* bits). */
+extern unsigned cli_explicit;
+#define CLI_SET_OPERATOR 0x1u
+#define CLI_SET_MARGIN 0x2u
+#define CLI_SET_SCALING 0x4u
+
 /* ---- errors and usage (cli_util.c) -------------------------------------- */
 /* The calling thread's last error message (without a leading "what: "),
  * or the status string when the library left no message. */
@@ -34,6 +46,9 @@ int cli_fail(const char *what, phks_status status);
 int cli_error(const char *what, const char *reason);
 /* Prints "usage: phks <line>" and returns 2. */
 int cli_usage(const char *line);
+/* When argv[1..argc) holds -h or --help (before "--"), prints
+ * "usage: phks <text>" on stdout and returns 1; else 0. */
+int cli_help(int argc, char **argv, const char *text);
 
 /* ---- argument parsing (cli_util.c) ------------------------------------- */
 typedef struct cli_opt {
@@ -66,6 +81,19 @@ int cli_is_blob(const char *path);
 /* A signature from a mesh file, or from a .sig blob (recognised by the
  * magic "PHKS"). Prints "phks: path: reason" and returns NULL on failure. */
 phks_signature *cli_signature_of(const char *path, const phks_options *options);
+/* Same, and the mesh into *mesh (NULL for a blob; free it), so that vertex
+ * ids can be given in the file's numbering (cli_file_vertex). With
+ * `verbose`, prints the mesh's counts on stdout first. Reports the stages
+ * when progress is on. */
+phks_signature *cli_signature_mesh(const char *path,
+                                   const phks_options *options,
+                                   phks_mesh **mesh, int verbose);
+/* The file's id of the cleaned mesh's vertex v (v itself without a mesh). */
+uint32_t cli_file_vertex(const phks_mesh *mesh, uint32_t v);
+/* phks_mesh_load, honouring --object for OBJ files and noting on stderr
+ * when an OBJ's several objects are merged (cli_obj.c). Thread-safe: on
+ * failure the message is printed ("phks: path: reason") and 1 returned. */
+int cli_load_mesh(const char *path, phks_mesh **mesh);
 /* Online CPUs, at least 1. */
 unsigned cli_cpu_count(void);
 /* "literal" or "random-walk". */
@@ -73,11 +101,26 @@ const char *cli_operator_name(int32_t operator_kind);
 /* Prints the options that shape the numbers, one line, with a prefix. */
 void cli_print_options(FILE *out, const char *prefix, const phks_options *o);
 
+/* ---- JSON on stdout (cli_json.c) ------------------------------------------ */
+/* A string: quotes, backslashes and control characters escaped, bytes that
+ * are not UTF-8 replaced by U+FFFD. */
+void cli_json_string(const char *s);
+/* A number that reads back exactly; null for infinities and NaN. */
+void cli_json_number(double x);
+/* [x, y, z] */
+void cli_json_vec(const double *v, size_t n);
+/* The options that shape signatures, as an object. */
+void cli_json_options(const phks_options *o);
+/* Option values in the tool's words. */
+const char *cli_scaling_name(int32_t hks_scaling);
+const char *cli_box_name(int32_t box);
+
 /* ---- databases (cli_db.c) ----------------------------------------------- */
 /* The options the signatures of a non-empty database were made with, into
  * *options (its threads kept): the only ones a new signature can be added
- * or queried with. An empty database leaves *options alone. 0, or 1 after
- * "phks: path: reason". */
+ * or queried with. An empty database leaves *options alone. A shaping
+ * global option given on the command line that differs from the
+ * database's is an error naming it. 0, or 1 after "phks: path: reason". */
 int cli_db_options(phks_db *db, const char *path, phks_options *options);
 
 /* ---- manifests (cli_manifest.c) ----------------------------------------- */
@@ -104,8 +147,21 @@ void cli_pool_run(size_t count, unsigned workers, cli_task_fn task, void *ctx);
  * when the process has it, to one thread unless OPENBLAS_NUM_THREADS or
  * OMP_NUM_THREADS says otherwise. */
 void cli_blas_one_thread(void);
-/* Starts a progress bar on stderr (only drawn when stderr is a terminal):
- * "[=====>    ] 12/380 unit". */
+/* Is progress to be shown (--progress, or a terminal unless --no-progress)? */
+int cli_progress_enabled(void);
+/* Stage reports of one computation ("phks: WHAT: eigen-decomposition 40%"):
+ * cli_stages_attach sets o->progress when progress is on; cli_stages_note
+ * reports a stage of the tool's own; cli_stages_end ends the line. On a
+ * terminal one updating line; otherwise one line per stage. */
+typedef struct cli_stages {
+    const char *what;
+    int stage, percent, on;
+} cli_stages;
+void cli_stages_attach(cli_stages *s, const char *what, phks_options *o);
+void cli_stages_note(cli_stages *s, const char *stage);
+void cli_stages_end(cli_stages *s);
+/* Starts a progress bar on stderr when progress is on: on a terminal
+ * "[=====>    ] 12/380 unit", updated in place; else a line per item. */
 void cli_progress_start(size_t total, const char *unit);
 /* One more item done; thread-safe. */
 void cli_progress_step(void);

@@ -15,11 +15,21 @@
 
 static const char usage[] =
     "bench MANIFEST [--prefix P] [--classes A,B] [--max-per-class M]\n"
-    "                  [--seeds N] [--cache DIR] [--queries-out TSV] [-j N]";
+    "                  [--seeds N] [--cache DIR] [--queries-out TSV] [-j N]\n"
+    "                  [--json]\n"
+    "  --prefix P          rows whose file starts with P (psb/)\n"
+    "  --classes A,B       only these classes (all)\n"
+    "  --max-per-class M   the first M models of each class (all)\n"
+    "  --seeds N           seed bases 1..N, 1..1000000 (1)\n"
+    "  --cache DIR         read and write signatures there (no cache)\n"
+    "  --queries-out TSV   one line per query (none)\n"
+    "  -j N                worker threads, 1..1024 (the online CPUs)\n"
+    "  --json              the report as JSON (markdown)";
 
 typedef struct bench_args {
     const char *manifest, *prefix, *classes, *cache, *queries_out;
     unsigned long max_per_class, seeds, workers;
+    int json;
 } bench_args;
 
 static int parse_args(int argc, char **argv, bench_args *a)
@@ -29,7 +39,7 @@ static int parse_args(int argc, char **argv, bench_args *a)
         {"--prefix", &a->prefix, NULL},   {"--classes", &a->classes, NULL},
         {"--max-per-class", &max, NULL},  {"--seeds", &seeds, NULL},
         {"--cache", &a->cache, NULL},     {"--queries-out", &a->queries_out, NULL},
-        {"-j", &jobs, NULL},
+        {"-j", &jobs, NULL},              {"--json", NULL, &a->json},
     };
     int n;
     a->prefix = "psb/";
@@ -174,7 +184,7 @@ static void print_header(const bench_args *a, const bench_plan *p,
            "complete, 1 partial scan, 2 incomplete. Each query model is "
            "queried as complete, partial scan and incomplete. Generator seed "
            "= splitmix64 hash of (seed base, file, kind). Top-k: an entry of "
-           "the query's class among the k best (phks_db_query); rates over "
+           "the query's class among the k best of the database; rates over "
            "the answered queries.\n\n%zu models: %zu query models (%zu queries "
            "per seed), %zu database models.\n", p->model_count, queries,
            3 * queries, p->model_count - queries);
@@ -190,24 +200,64 @@ static FILE *open_queries_out(const char *path)
     return f;
 }
 
-static int score_all(const bench_plan *p, FILE *qout)
+static int score_all(const bench_plan *p, FILE *qout, int json)
 {
     bench_tally pooled = {0};
     int rc = 0;
+    if (json)
+        fputs(",\n  \"seeds\": [", stdout);
     for (unsigned s = 1; s <= p->seeds; s++) {
         bench_tally t = {0};
         char title[64];
         rc |= bench_score_seed(p, s, &t, qout);
         bench_tally_add(&pooled, &t);
         snprintf(title, sizeof title, "Seed %u", s);
-        if (p->seeds > 1)
+        if (json) {
+            printf("%s\n    {\"seed\": %u, \"results\": ", s > 1 ? "," : "",
+                   s);
+            bench_json_tally(&t);
+            putchar('}');
+        } else if (p->seeds > 1)
             bench_print_tally(&t, title);
     }
-    bench_print_tally(&pooled, p->seeds > 1 ? "All seeds (pooled)" : "Results");
+    if (json) {
+        fputs("\n  ],\n  \"pooled\": ", stdout);
+        bench_json_tally(&pooled);
+    } else
+        bench_print_tally(&pooled,
+                          p->seeds > 1 ? "All seeds (pooled)" : "Results");
     return rc;
 }
 
-static void print_footer(const bench_plan *p, double seconds)
+static void json_header(const bench_args *a, const bench_plan *p,
+                        unsigned workers)
+{
+    size_t queries = 0;
+    for (size_t m = 0; m < p->model_count; m++)
+        queries += (size_t)p->models[m].is_query;
+    printf("{\"library\": \"%s\", \"manifest\": ", phks_version_string());
+    cli_json_string(a->manifest);
+    fputs(", \"prefix\": ", stdout);
+    cli_json_string(a->prefix);
+    fputs(", \"classes\": ", stdout);
+    if (a->classes)
+        cli_json_string(a->classes);
+    else
+        fputs("null", stdout);
+    fputs(", \"max_per_class\": ", stdout);
+    if (a->max_per_class != (unsigned long)-1)
+        printf("%lu", a->max_per_class);
+    else
+        fputs("null", stdout);
+    printf(", \"seed_count\": %u, \"workers\": %u,\n  \"options\": ",
+           p->seeds, workers);
+    cli_json_options(&p->options);
+    printf(",\n  \"models\": %zu, \"query_models\": %zu, "
+           "\"queries_per_seed\": %zu, \"database_models\": %zu",
+           p->model_count, queries, 3 * queries, p->model_count - queries);
+}
+
+static void print_footer(const bench_plan *p, double seconds, int json)
 {
     size_t computed = 0, cached = 0, failed = 0;
     for (size_t i = 0; i < p->item_count; i++) {
@@ -215,6 +265,14 @@ static void print_footer(const bench_plan *p, double seconds)
         failed += !it->sig;
         cached += it->sig && it->cached;
         computed += it->sig && !it->cached;
+    }
+    if (json) {
+        printf(",\n  \"signatures\": {\"computed\": %zu, \"cached\": %zu, "
+               "\"failed\": %zu},\n  \"wall_seconds\": ", computed, cached,
+               failed);
+        cli_json_number(seconds);
+        fputs("\n}\n", stdout);
+        return;
     }
     printf("\nSignatures: %zu computed, %zu from the cache, %zu failed; wall "
            "time %.1f s.\n", computed, cached, failed, seconds);
@@ -232,21 +290,26 @@ static int run(const bench_args *a, bench_plan *p, FILE *qout)
     if (a->cache && mkdir(a->cache, 0777) != 0 && errno != EEXIST)
         return cli_error(a->cache, strerror(errno));
     unsigned workers = (unsigned)a->workers;
-    print_header(a, p, workers);
+    if (a->json)
+        json_header(a, p, workers);
+    else
+        print_header(a, p, workers);
     fflush(stdout);
     double start = now();
     cli_blas_one_thread();
     cli_progress_start(p->item_count, "signatures");
     cli_pool_run(p->item_count, workers, bench_compute, p);
     cli_progress_end();
-    int rc = score_all(p, qout);
-    print_footer(p, now() - start);
+    int rc = score_all(p, qout, a->json);
+    print_footer(p, now() - start, a->json);
     return rc;
 }
 
 int cli_bench(int argc, char **argv, const phks_options *options)
 {
     bench_args a = {0};
+    if (cli_help(argc, argv, usage))
+        return 0;
     if (parse_args(argc, argv, &a) != 0)
         return cli_usage(usage);
     cli_row *rows;

@@ -76,5 +76,7 @@ int bench_score_seed(const bench_plan *plan, unsigned seed, bench_tally *tally,
 void bench_tally_add(bench_tally *sum, const bench_tally *t);
 /* The retrieval table and the features-at-the-cut table, markdown. */
 void bench_print_tally(const bench_tally *t, const char *title);
+/* The same as a JSON object on stdout (docs/cli.md). */
+void bench_json_tally(const bench_tally *t);
 
 #endif

@@ -197,3 +197,48 @@ void bench_print_tally(const bench_tally *t, const char *title)
     print_retrieval(t);
     print_cut(t);
 }
+
+static void json_percent(size_t part, size_t whole)
+{
+    if (whole)
+        cli_json_number(100.0 * (double)part / (double)whole);
+    else
+        fputs("null", stdout);
+}
+
+void bench_json_tally(const bench_tally *t)
+{
+    printf("{\"database\": {\"entries\": %zu, \"complete\": %zu, "
+           "\"partial\": %zu, \"incomplete\": %zu, \"failed\": %zu},\n"
+           "      \"retrieval\": [", sum(t->db_entries, 7), t->db_entries[0],
+           t->db_entries[1], t->db_entries[2], sum(t->db_failed, 7));
+    for (size_t r = 0; r < sizeof rows / sizeof rows[0]; r++) {
+        size_t n = sum(t->queries, rows[r].kinds);
+        printf("%s\n        {\"queries\": \"%s\", \"n\": %zu, \"failed\": %zu",
+               r ? "," : "", rows[r].name, n, sum(t->failed, rows[r].kinds));
+        static const char *const top[] = {"top1", "top3", "top5"};
+        for (int k = 0; k < 3; k++) {
+            size_t hits = 0;
+            for (int kind = 0; kind < KIND_COUNT; kind++)
+                hits += rows[r].kinds >> kind & 1 ? t->top[kind][k] : 0;
+            printf(", \"%s_hits\": %zu, \"%s\": ", top[k], hits, top[k]);
+            json_percent(hits, n);
+        }
+        putchar('}');
+    }
+    printf("\n      ],\n      \"cut_radius\": %g, \"cut\": [", BENCH_CUT_RADIUS);
+    for (size_t r = 1; r < 4; r++) {
+        size_t f = sum(t->features, rows[r].kinds);
+        size_t c = sum(t->near_cut, rows[r].kinds);
+        printf("%s\n        {\"queries\": \"%s\", \"n\": %zu, "
+               "\"features\": %zu, \"near_cut\": %zu, \"percent\": ",
+               r > 1 ? "," : "", rows[r].name,
+               sum(t->cut_queries, rows[r].kinds), f, c);
+        json_percent(c, f);
+        fputs(", \"vertices_near_cut_percent\": ", stdout);
+        json_percent(sum(t->vertices_near_cut, rows[r].kinds),
+                     sum(t->vertices, rows[r].kinds));
+        putchar('}');
+    }
+    fputs("\n      ]}", stdout);
+}

@@ -10,31 +10,27 @@
 
 #define PAGE 256
 
-/* A JSON string: quotes, backslashes and control characters escaped, bytes
- * that are not UTF-8 replaced by U+FFFD. */
-static void json_string(const char *s)
-{
-    const unsigned char *p = (const unsigned char *)s;
-    putchar('"');
-    while (*p) {
-        size_t len = *p < 0x80 ? 1 : (*p >> 5) == 6 ? 2 : (*p >> 4) == 14 ? 3
-                   : (*p >> 3) == 30 ? 4 : 0;
-        size_t ok = len;
-        for (size_t i = 1; i < len; i++)
-            if ((p[i] & 0xc0) != 0x80)
-                ok = 0;
-        if (*p == '"' || *p == '\\')
-            printf("\\%c", *p);
-        else if (*p < 0x20)
-            printf("\\u%04x", *p);
-        else if (ok)
-            fwrite(p, 1, len, stdout);
-        else
-            fputs("\\ufffd", stdout);
-        p += ok ? ok : 1;
-    }
-    putchar('"');
-}
+static const char query_usage[] =
+    "db query DB MESH|SIG [-k K] [--json]\n"
+    "  -k K      the K best entries, 1..1000000 (10)\n"
+    "  --json    print the hits as JSON (text)\n"
+    "  the signature of a mesh is computed with the database's options";
+static const char list_usage[] =
+    "db list DB [--json]\n"
+    "  --json    print the entries as JSON (text)";
+static const char info_usage[] =
+    "db info DB [--json]\n"
+    "  --json    print the database's description as JSON (text)";
+static const char remove_usage[] = "db remove DB ID...";
+static const char db_usage[] =
+    "db add|query|list|info|remove DB ...\n"
+    "  phks db add DB FILES|DIRS... [--label L] [-j N] [--allow-duplicates]\n"
+    "  phks db add DB --manifest TSV [-j N] [--allow-duplicates]\n"
+    "  phks db query DB MESH|SIG [-k K (10)] [--json]\n"
+    "  phks db list DB [--json]\n"
+    "  phks db info DB [--json]\n"
+    "  phks db remove DB ID...\n"
+    "  `phks db SUBCOMMAND --help` tells more";
 
 static void print_hits(const phks_hit *hits, size_t count, int json)
 {
@@ -50,9 +46,9 @@ static void print_hits(const phks_hit *hits, size_t count, int json)
     for (size_t i = 0; i < count; i++) {
         printf("%s\n  {\"rank\": %zu, \"id\": %" PRId64 ", \"score\": %.17g, "
                "\"label\": ", i ? "," : "", i + 1, hits[i].id, hits[i].score);
-        json_string(hits[i].label);
+        cli_json_string(hits[i].label);
         printf(", \"name\": ");
-        json_string(hits[i].name);
+        cli_json_string(hits[i].name);
         printf("}");
     }
     printf("%s]\n", count ? "\n" : "");
@@ -68,12 +64,41 @@ int cli_db_options(phks_db *db, const char *path, phks_options *options)
         st = phks_db_get(db, first, &sig, NULL, 0, NULL, 0);
     if (st != PHKS_OK)
         return cli_fail(path, st);
-    if (sig) {
-        uint32_t threads = options->threads;
-        phks_signature_options(sig, options);
-        options->threads = threads;
-        phks_signature_free(sig);
+    if (!sig)
+        return 0;
+    phks_options db_options;
+    phks_signature_options(sig, &db_options);
+    phks_signature_free(sig);
+    char given[64] = "", theirs[64] = "", name[32] = "";
+    if ((cli_explicit & CLI_SET_OPERATOR) &&
+        options->operator_kind != db_options.operator_kind) {
+        snprintf(name, sizeof name, "--operator");
+        snprintf(given, sizeof given, "%s",
+                 cli_operator_name(options->operator_kind));
+        snprintf(theirs, sizeof theirs, "%s",
+                 cli_operator_name(db_options.operator_kind));
+    } else if ((cli_explicit & CLI_SET_SCALING) &&
+               options->hks_scaling != db_options.hks_scaling) {
+        snprintf(name, sizeof name, "--hks-scaling");
+        snprintf(given, sizeof given, "%s",
+                 cli_scaling_name(options->hks_scaling));
+        snprintf(theirs, sizeof theirs, "%s",
+                 cli_scaling_name(db_options.hks_scaling));
+    } else if ((cli_explicit & CLI_SET_MARGIN) &&
+               options->boundary_margin != db_options.boundary_margin) {
+        snprintf(name, sizeof name, "--boundary-margin");
+        snprintf(given, sizeof given, "%g", options->boundary_margin);
+        snprintf(theirs, sizeof theirs, "%g", db_options.boundary_margin);
     }
+    if (*name) {
+        fprintf(stderr, "phks: %s: %s %s given, but the database's "
+                "signatures were made with %s %s (drop the option, or use "
+                "another database)\n", path, name, given, name, theirs);
+        return 1;
+    }
+    uint32_t threads = options->threads;
+    *options = db_options;
+    options->threads = threads;
     return 0;
 }
 
@@ -83,9 +108,11 @@ static int db_query(int argc, char **argv, const phks_options *defaults)
     int json = 0, n;
     const cli_opt opts[] = {{"-k", &k_text, NULL}, {"--json", NULL, &json}};
     unsigned long k;
+    if (cli_help(argc, argv, query_usage))
+        return 0;
     if (cli_parse(argc, argv, 1, opts, 2, &n) != 0 || n != 2 ||
         cli_parse_count(k_text, 1, 1000000, &k) != 0)
-        return cli_usage("db query DB MESH|SIG [-k K] [--json]");
+        return cli_usage(query_usage);
     phks_db *db;
     phks_status st = phks_db_open(argv[1], PHKS_DB_READONLY, &db);
     if (st != PHKS_OK)
@@ -138,15 +165,25 @@ static phks_status get_entry(phks_db *db, int64_t id, phks_signature **sig,
 }
 
 static phks_status list_page(phks_db *db, const int64_t *ids, size_t count,
-                             char **name, char **label, size_t *cap)
+                             char **name, char **label, size_t *cap,
+                             int json, size_t *listed)
 {
     for (size_t i = 0; i < count; i++) {
         phks_signature *sig;
         phks_status st = get_entry(db, ids[i], &sig, name, label, cap);
         if (st != PHKS_OK)
             return st;
-        printf("%8" PRId64 "  %-16s %8zu  %s\n", ids[i], *label,
-               phks_signature_feature_count(sig), *name);
+        if (json) {
+            printf("%s\n  {\"id\": %" PRId64 ", \"label\": ",
+                   (*listed)++ ? "," : "", ids[i]);
+            cli_json_string(*label);
+            printf(", \"features\": %zu, \"name\": ",
+                   phks_signature_feature_count(sig));
+            cli_json_string(*name);
+            putchar('}');
+        } else
+            printf("%8" PRId64 "  %-16s %8zu  %s\n", ids[i], *label,
+                   phks_signature_feature_count(sig), *name);
         phks_signature_free(sig);
     }
     return PHKS_OK;
@@ -154,9 +191,13 @@ static phks_status list_page(phks_db *db, const int64_t *ids, size_t count,
 
 static int db_list(int argc, char **argv)
 {
-    int n;
-    if (cli_parse(argc, argv, 1, NULL, 0, &n) != 0 || n != 1)
-        return cli_usage("db list DB");
+    int n, json = 0;
+    size_t listed = 0;
+    const cli_opt opts[] = {{"--json", NULL, &json}};
+    if (cli_help(argc, argv, list_usage))
+        return 0;
+    if (cli_parse(argc, argv, 1, opts, 1, &n) != 0 || n != 1)
+        return cli_usage(list_usage);
     phks_db *db;
     phks_status st = phks_db_open(argv[1], PHKS_DB_READONLY, &db);
     if (st != PHKS_OK)
@@ -165,14 +206,18 @@ static int db_list(int argc, char **argv)
     char *name = malloc(cap), *label = malloc(cap);
     int64_t ids[PAGE], after = 0;
     st = name && label ? PHKS_OK : PHKS_ERROR_OUT_OF_MEMORY;
-    if (st == PHKS_OK)
+    if (st == PHKS_OK && json)
+        putchar('[');
+    else if (st == PHKS_OK)
         printf("%8s  %-16s %8s  %s\n", "id", "label", "features", "name");
     while (st == PHKS_OK && count == PAGE &&
            (st = phks_db_list(db, after, ids, PAGE, &count)) == PHKS_OK &&
            count > 0) {
-        st = list_page(db, ids, count, &name, &label, &cap);
+        st = list_page(db, ids, count, &name, &label, &cap, json, &listed);
         after = ids[count - 1];
     }
+    if (st == PHKS_OK && json)
+        printf("%s]\n", listed ? "\n" : "");
     free(name);
     free(label);
     phks_db_close(db);
@@ -193,8 +238,10 @@ static int db_remove(int argc, char **argv)
 {
     int n, rc = 0;
     int64_t id;
+    if (cli_help(argc, argv, remove_usage))
+        return 0;
     if (cli_parse(argc, argv, 1, NULL, 0, &n) != 0 || n < 2)
-        return cli_usage("db remove DB ID...");
+        return cli_usage(remove_usage);
     for (int i = 2; i <= n; i++)
         if (parse_id(argv[i], &id) != 0)
             return cli_usage("db remove DB ID...  (ids are positive integers)");
@@ -213,9 +260,75 @@ static int db_remove(int argc, char **argv)
     return rc;
 }
 
+/* The database format: SQLite's user_version, 4 bytes big-endian at
+ * offset 60 of the file's header (docs/formats.md); 0 if unreadable. */
+static unsigned long db_format(const char *path)
+{
+    unsigned char h[64];
+    FILE *f = fopen(path, "rb");
+    size_t got = f ? fread(h, 1, sizeof h, f) : 0;
+    if (f)
+        fclose(f);
+    if (got < 64 || memcmp(h, "SQLite format 3", 15) != 0)
+        return 0;
+    return (unsigned long)h[60] << 24 | (unsigned long)h[61] << 16 |
+           (unsigned long)h[62] << 8 | h[63];
+}
+
+static int db_info(int argc, char **argv, const phks_options *defaults)
+{
+    int n, json = 0;
+    const cli_opt opts[] = {{"--json", NULL, &json}};
+    if (cli_help(argc, argv, info_usage))
+        return 0;
+    if (cli_parse(argc, argv, 1, opts, 1, &n) != 0 || n != 1)
+        return cli_usage(info_usage);
+    phks_db *db;
+    phks_status st = phks_db_open(argv[1], PHKS_DB_READONLY, &db);
+    if (st != PHKS_OK)
+        return cli_fail(argv[1], st);
+    size_t entries = 0;
+    st = phks_db_count(db, &entries);
+    phks_options o = *defaults;
+    unsigned saved = cli_explicit;
+    cli_explicit = 0;  /* describing, not adding: nothing to refuse */
+    int rc = st != PHKS_OK ? cli_fail(argv[1], st)
+                           : cli_db_options(db, argv[1], &o);
+    cli_explicit = saved;
+    phks_db_close(db);
+    if (rc)
+        return rc;
+    unsigned long format = db_format(argv[1]);
+    if (json) {
+        fputs("{\"path\": ", stdout);
+        cli_json_string(argv[1]);
+        printf(", \"format\": %lu, \"entries\": %zu,\n  \"options\": ",
+               format, entries);
+        if (entries)
+            cli_json_options(&o);
+        else
+            fputs("null", stdout);
+        fputs("\n}\n", stdout);
+        return 0;
+    }
+    printf("path      %s\nformat    %lu\nentries   %zu\n", argv[1], format,
+           entries);
+    if (entries)
+        cli_print_options(stdout, "options   ", &o);
+    else
+        printf("options   none yet (the first signature added sets them)\n");
+    return 0;
+}
+
 int cli_db(int argc, char **argv, const phks_options *options)
 {
     const char *sub = argc > 1 ? argv[1] : "";
+    if (strcmp(sub, "--help") == 0 || strcmp(sub, "-h") == 0) {
+        printf("usage: phks %s\n", db_usage);
+        return 0;
+    }
+    if (strcmp(sub, "info") == 0)
+        return db_info(argc - 1, argv + 1, options);
     if (strcmp(sub, "add") == 0)
         return cli_db_add(argc - 1, argv + 1, options);
     if (strcmp(sub, "query") == 0)
@@ -226,5 +339,5 @@ int cli_db(int argc, char **argv, const phks_options *options)
         return db_remove(argc - 1, argv + 1);
     if (*sub)
         fprintf(stderr, "phks: unknown db command %s\n", sub);
-    return cli_usage("db add|query|list|remove DB ...");
+    return cli_usage(db_usage);
 }

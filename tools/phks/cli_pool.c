@@ -69,6 +69,7 @@ void cli_blas_one_thread(void)
 static pthread_mutex_t out_lock = PTHREAD_MUTEX_INITIALIZER;
 static struct {
     int on;          /* a bar is being drawn         */
+    int tty;         /* ... in place; else as lines  */
     size_t done, total;
     const char *unit;
 } bar;
@@ -77,6 +78,11 @@ static void bar_draw(void)
 {
     if (!bar.on)
         return;
+    if (!bar.tty) {
+        fprintf(stderr, "phks: %zu/%zu %s\n", bar.done, bar.total, bar.unit);
+        fflush(stderr);
+        return;
+    }
     size_t fill = bar.total ? bar.done * BAR_WIDTH / bar.total : BAR_WIDTH;
     char cells[BAR_WIDTH + 1];
     for (size_t i = 0; i < BAR_WIDTH; i++)
@@ -88,14 +94,15 @@ static void bar_draw(void)
 
 static void bar_clear(void)
 {
-    if (bar.on)
+    if (bar.on && bar.tty)
         fputs("\r\033[K", stderr);
 }
 
 void cli_progress_start(size_t total, const char *unit)
 {
     pthread_mutex_lock(&out_lock);
-    bar.on = isatty(STDERR_FILENO) && total > 0;
+    bar.on = cli_progress_enabled() && total > 0;
+    bar.tty = isatty(STDERR_FILENO);
     bar.done = 0;
     bar.total = total;
     bar.unit = unit;
@@ -114,7 +121,7 @@ void cli_progress_step(void)
 void cli_progress_end(void)
 {
     pthread_mutex_lock(&out_lock);
-    if (bar.on)
+    if (bar.on && bar.tty)
         fputc('\n', stderr);
     bar.on = 0;
     pthread_mutex_unlock(&out_lock);
@@ -125,7 +132,78 @@ static void say_locked(FILE *out, const char *format, va_list ap)
     bar_clear();
     vfprintf(out, format, ap);
     fflush(out);
-    bar_draw();
+    if (bar.tty)
+        bar_draw();
+}
+
+int cli_progress_enabled(void)
+{
+    return cli_progress_mode >= 0 ? cli_progress_mode
+                                  : isatty(STDERR_FILENO);
+}
+
+/* ---- stages of one computation --------------------------------------------- */
+static const char *const stage_names[PHKS_STAGE_COUNT] = {
+    "building the operator", "eigen-decomposition", "heat kernel signature",
+    "feature points"};
+
+static void stage_report(cli_stages *s, const char *name, int percent)
+{
+    pthread_mutex_lock(&out_lock);
+    if (isatty(STDERR_FILENO))
+        fprintf(stderr, "\rphks: %s: %s %d%%\033[K", s->what, name, percent);
+    else
+        fprintf(stderr, "phks: %s: %s\n", s->what, name);
+    fflush(stderr);
+    pthread_mutex_unlock(&out_lock);
+}
+
+static int on_stage(void *user, phks_stage stage, double fraction)
+{
+    cli_stages *s = user;
+    int percent = (int)(fraction * 100);
+    percent = percent < 0 ? 0 : percent > 100 ? 100 : percent;
+    int changed = (int)stage != s->stage;
+    if ((unsigned)stage >= PHKS_STAGE_COUNT)
+        return 0;
+    /* Lines only when the stage changes; the terminal's line per percent. */
+    if (changed || (percent != s->percent && isatty(STDERR_FILENO)))
+        stage_report(s, stage_names[stage], percent);
+    s->stage = (int)stage;
+    s->percent = percent;
+    return 0;
+}
+
+void cli_stages_attach(cli_stages *s, const char *what, phks_options *o)
+{
+    s->what = what;
+    s->stage = -1;
+    s->percent = -1;
+    s->on = cli_progress_enabled();
+    if (s->on) {
+        o->progress = on_stage;
+        o->progress_user = s;
+    }
+}
+
+void cli_stages_note(cli_stages *s, const char *stage)
+{
+    if (s->on) {
+        s->stage = PHKS_STAGE_COUNT;
+        stage_report(s, stage, 0);
+    }
+}
+
+void cli_stages_end(cli_stages *s)
+{
+    if (!s->on)
+        return;
+    pthread_mutex_lock(&out_lock);
+    fprintf(stderr, "%sphks: %s: done%s\n", isatty(STDERR_FILENO) ? "\r" : "",
+            s->what, isatty(STDERR_FILENO) ? "\033[K" : "");
+    fflush(stderr);
+    pthread_mutex_unlock(&out_lock);
+    s->on = 0;
 }
 
 void cli_say(FILE *out, const char *format, ...)

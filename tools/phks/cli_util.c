@@ -10,22 +10,90 @@
 #include <string.h>
 #include <unistd.h>
 
+int cli_progress_mode = -1;
+const char *cli_object;
+unsigned cli_explicit;
+
 int cli_error(const char *what, const char *reason)
 {
     fprintf(stderr, "phks: %s: %s\n", what, reason);
     return 1;
 }
 
+/* The library's messages speak of its C API; the tool's users know its
+ * options. Identifiers are replaced, and a mismatch of an option the tool
+ * has gets its values in the tool's words appended. */
+static const struct {
+    const char *from, *to;
+} rewording[] = {
+    {"(missing? PHKS_DB_CREATE makes it)",
+     "(missing? `phks db add` creates a database)"},
+    {"PHKS_DB_READONLY", "read-only"},
+    {"PHKS_DB_CREATE", "create"},
+};
+
+static const char *value_name(const char *field, double v)
+{
+    static _Thread_local char buf[32];
+    if (strcmp(field, "operator_kind") == 0)
+        return cli_operator_name((int32_t)v);
+    if (strcmp(field, "hks_scaling") == 0)
+        return cli_scaling_name((int32_t)v);
+    if (strcmp(field, "box") == 0)
+        return cli_box_name((int32_t)v);
+    snprintf(buf, sizeof buf, "%g", v);
+    return buf;
+}
+
+static void reword(char *buf, size_t size)
+{
+    for (size_t i = 0; i < sizeof rewording / sizeof rewording[0]; i++) {
+        char *at = strstr(buf, rewording[i].from);
+        if (!at)
+            continue;
+        size_t from = strlen(rewording[i].from), to = strlen(rewording[i].to);
+        size_t tail = strlen(at + from);
+        if ((size_t)(at - buf) + to + tail + 1 > size)
+            continue;
+        memmove(at + to, at + from, tail + 1);
+        memcpy(at, rewording[i].to, to);
+    }
+    static const char *const fields[][2] = {
+        {"operator_kind", "--operator"},
+        {"hks_scaling", "--hks-scaling"},
+        {"boundary_margin", "--boundary-margin"},
+    };
+    for (size_t i = 0; i < sizeof fields / sizeof fields[0]; i++) {
+        char pattern[64];
+        snprintf(pattern, sizeof pattern, "%s ", fields[i][0]);
+        const char *at = strstr(buf, pattern);
+        double x, y;
+        if (!at || sscanf(at + strlen(pattern), "%lf against %lf", &x, &y) != 2)
+            continue;
+        char a[32], b[32], more[160];
+        snprintf(a, sizeof a, "%s", value_name(fields[i][0], x));
+        snprintf(b, sizeof b, "%s", value_name(fields[i][0], y));
+        snprintf(more, sizeof more, "; phks option %s: %s against %s",
+                 fields[i][1], a, b);
+        if (strlen(buf) + strlen(more) + 1 <= size)
+            strcat(buf, more);
+        break;
+    }
+}
+
 const char *cli_reason(const char *what, phks_status status)
 {
+    static _Thread_local char buf[1024];
     const char *msg = phks_last_error_message();
     size_t n = strlen(what);
     if (!msg || !*msg)
         return phks_status_string(status);
     /* Loader messages start with the file name, which is already said. */
     if (strncmp(msg, what, n) == 0 && msg[n] == ':' && msg[n + 1] == ' ')
-        return msg + n + 2;
-    return msg;
+        msg += n + 2;
+    snprintf(buf, sizeof buf, "%s", msg);
+    reword(buf, sizeof buf);
+    return buf;
 }
 
 int cli_fail(const char *what, phks_status status)
@@ -37,6 +105,19 @@ int cli_usage(const char *line)
 {
     fprintf(stderr, "usage: phks %s\n", line);
     return 2;
+}
+
+int cli_help(int argc, char **argv, const char *text)
+{
+    for (int i = 1; i < argc; i++) {
+        if (strcmp(argv[i], "--") == 0)
+            return 0;
+        if (strcmp(argv[i], "-h") == 0 || strcmp(argv[i], "--help") == 0) {
+            printf("usage: phks %s\n", text);
+            return 1;
+        }
+    }
+    return 0;
 }
 
 static const cli_opt *find_opt(const cli_opt *opts, size_t nopts,
@@ -195,20 +276,44 @@ static phks_signature *decode_file(const char *path)
     return sig;
 }
 
-phks_signature *cli_signature_of(const char *path, const phks_options *options)
+phks_signature *cli_signature_mesh(const char *path,
+                                   const phks_options *options,
+                                   phks_mesh **mesh, int verbose)
 {
+    *mesh = NULL;
     if (cli_is_blob(path))
         return decode_file(path);
-    phks_mesh *mesh;
     phks_signature *sig = NULL;
-    phks_status st = phks_mesh_load(path, &mesh);
-    if (st == PHKS_OK) {
-        st = phks_signature_compute(mesh, options, &sig);
-        phks_mesh_free(mesh);
-    }
-    if (st != PHKS_OK)
+    if (cli_load_mesh(path, mesh) != 0)
+        return NULL;
+    if (verbose)
+        printf("%s: %zu vertices, %zu triangles\n", path,
+               phks_mesh_vertex_count(*mesh), phks_mesh_triangle_count(*mesh));
+    phks_options o = *options;
+    cli_stages stages;
+    cli_stages_attach(&stages, path, &o);
+    phks_status st = phks_signature_compute(*mesh, &o, &sig);
+    cli_stages_end(&stages);
+    if (st != PHKS_OK) {
         cli_fail(path, st);
+        phks_mesh_free(*mesh);
+        *mesh = NULL;
+    }
     return sig;
+}
+
+phks_signature *cli_signature_of(const char *path, const phks_options *options)
+{
+    phks_mesh *mesh;
+    phks_signature *sig = cli_signature_mesh(path, options, &mesh, 0);
+    phks_mesh_free(mesh);
+    return sig;
+}
+
+uint32_t cli_file_vertex(const phks_mesh *mesh, uint32_t v)
+{
+    const uint32_t *origin = phks_mesh_vertex_origin(mesh);
+    return origin && v < phks_mesh_vertex_count(mesh) ? origin[v] : v;
 }
 
 unsigned cli_cpu_count(void)
@@ -229,13 +334,11 @@ void cli_print_options(FILE *out, const char *prefix, const phks_options *o)
             "features %u at %g tau, %u scales (%g..%g tau), boundary margin "
             "%g, HKS scaling %s, HKS-simp above %u vertices (target %u)\n",
             prefix, cli_operator_name(o->operator_kind),
-            o->box == PHKS_BOX_AXIS_ALIGNED ? "axis-aligned" : "principal",
+            cli_box_name(o->box),
             o->tau, o->cutoff, o->eigen_count, o->feature_count,
             o->feature_scale, o->scale_count, o->scales[0],
             o->scales[o->scale_count ? o->scale_count - 1 : 0],
             o->boundary_margin,
-            o->hks_scaling == PHKS_HKS_SCALING_MEAN         ? "mean"
-            : o->hks_scaling == PHKS_HKS_SCALING_LOCAL_AREA ? "local-area"
-                                                            : "none",
+            cli_scaling_name(o->hks_scaling),
             o->simplify_above, o->simplify_target);
 }

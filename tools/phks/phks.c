@@ -11,23 +11,48 @@
 #include <string.h>
 
 static const char usage_text[] =
-    "usage: phks [--operator literal|random-walk] [--threads N]\n"
-    "            [--boundary-margin X] [--hks-scaling none|mean|local-area]\n"
-    "            COMMAND ...\n"
-    "  phks signature MESH [-o SIG]\n"
-    "  phks match A B                  (meshes or .sig files)\n"
-    "  phks segment MESH -o OUT.ply\n"
-    "  phks db add DB FILES... [--label L] [-j N]\n"
-    "  phks db add DB --manifest TSV [-j N]\n"
-    "  phks db query DB MESH|SIG [-k K] [--json]\n"
-    "  phks db list DB\n"
+    "usage: phks [global options] COMMAND ...\n"
+    "global options (anywhere on the line):\n"
+    "  --operator literal|random-walk      heat operator (random-walk)\n"
+    "  --boundary-margin X                 0..100 (2)\n"
+    "  --hks-scaling none|mean|local-area  (local-area)\n"
+    "  --threads N                         0 = one per CPU (0)\n"
+    "  --object NAME                       read only this OBJ object or group\n"
+    "                                      (all, merged)\n"
+    "  --progress | --no-progress          progress on stderr (when stderr is\n"
+    "                                      a terminal)\n"
+    "commands (`phks COMMAND --help` tells more):\n"
+    "  phks signature MESH|SIG [-o SIG] [--json]\n"
+    "  phks match A B [--json]              (meshes or .sig files)\n"
+    "  phks segment MESH -o OUT.ply [--regions N (15)] [--time T (5)]\n"
+    "               [--ascii] [--json]\n"
+    "  phks db add DB FILES|DIRS... [--label L] [-j N (CPUs)]\n"
+    "              [--allow-duplicates]\n"
+    "  phks db add DB --manifest TSV [-j N (CPUs)] [--allow-duplicates]\n"
+    "  phks db query DB MESH|SIG [-k K (10)] [--json]\n"
+    "  phks db list DB [--json]\n"
+    "  phks db info DB [--json]\n"
     "  phks db remove DB ID...\n"
-    "  phks bench MANIFEST [--prefix P] [--classes A,B] [--max-per-class M]\n"
-    "             [--seeds N] [--cache DIR] [--queries-out TSV] [-j N]\n"
+    "  phks bench MANIFEST [--prefix P (psb/)] [--classes A,B (all)]\n"
+    "             [--max-per-class M (all)] [--seeds N (1)] [--cache DIR]\n"
+    "             [--queries-out TSV] [-j N (CPUs)] [--json]\n"
     "  phks --version | --help\n";
 
 static const char *const globals[] = {"--operator", "--threads",
-                                      "--boundary-margin", "--hks-scaling"};
+                                      "--boundary-margin", "--hks-scaling",
+                                      "--object"};
+
+/* Global options without a value. */
+static int take_flag(const char *arg)
+{
+    if (strcmp(arg, "--progress") == 0)
+        cli_progress_mode = 1;
+    else if (strcmp(arg, "--no-progress") == 0)
+        cli_progress_mode = 0;
+    else
+        return 0;
+    return 1;
+}
 
 static int is_global(const char *arg)
 {
@@ -44,7 +69,12 @@ static int set_global(const char *name, const char *v, phks_options *o)
     char *end;
     if (!v)
         return -1;
-    if (strcmp(name, "--operator") == 0) {
+    if (strcmp(name, "--object") == 0) {
+        if (!*v)
+            return -1;
+        cli_object = v;
+    } else if (strcmp(name, "--operator") == 0) {
+        cli_explicit |= CLI_SET_OPERATOR;
         if (strcmp(v, "literal") != 0 && strcmp(v, "random-walk") != 0)
             return -1;
         o->operator_kind = strcmp(v, "literal") == 0
@@ -55,6 +85,7 @@ static int set_global(const char *name, const char *v, phks_options *o)
             return -1;
         o->threads = (uint32_t)count;
     } else if (strcmp(name, "--hks-scaling") == 0) {
+        cli_explicit |= CLI_SET_SCALING;
         if (strcmp(v, "none") == 0)
             o->hks_scaling = PHKS_HKS_SCALING_NONE;
         else if (strcmp(v, "mean") == 0)
@@ -64,6 +95,7 @@ static int set_global(const char *name, const char *v, phks_options *o)
         else
             return -1;
     } else {
+        cli_explicit |= CLI_SET_MARGIN;
         double margin = strtod(v, &end);
         if (end == v || *end || !(margin >= 0 && margin <= 100))
             return -1;
@@ -83,6 +115,8 @@ static int take_globals(int argc, char **argv, phks_options *o)
                 argv[n++] = argv[i++];
             break;
         }
+        if (take_flag(argv[i]))
+            continue;
         if (!is_global(argv[i])) {
             argv[n++] = argv[i];
             continue;
