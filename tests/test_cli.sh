@@ -119,17 +119,93 @@ run "$phks" match a.off missing.off; expect_rc 1 "match with a missing file"
 expect_err "^phks: missing.off: "
 
 # ---- segment ----------------------------------------------------------------
+# plyinfo FILE: a small PLY reader (ascii and binary_little_endian): prints
+# "format", the element counts, and checks that every face's corners are
+# vertices, regions are -1..features-1, features name vertices whose
+# position they carry, and that each vertex carries a region and colour.
+cat > plyinfo.py <<'PY'
+import struct, sys
+data = open(sys.argv[1], 'rb').read()
+end = data.index(b'end_header\n') + len(b'end_header\n')
+header = data[:end].decode().split('\n')
+assert header[0] == 'ply'
+fmt = header[1].split()[1]
+elements = []
+for line in header:
+    w = line.split()
+    if w and w[0] == 'element':
+        elements.append((w[1], int(w[2]), []))
+    elif w and w[0] == 'property':
+        elements[-1][2].append(w[1:])
+codes = {'uchar': 'B', 'char': 'b', 'int': 'i', 'uint': 'I', 'float': 'f',
+         'double': 'd', 'short': 'h', 'ushort': 'H'}
+pos = end
+tokens = data[end:].split() if fmt == 'ascii' else None
+at = 0
+def read(t):
+    global pos, at
+    if fmt == 'ascii':
+        at += 1
+        v = tokens[at - 1]
+        return float(v) if t in ('float', 'double') else int(v)
+    c = '<' + codes[t]
+    v = struct.unpack_from(c, data, pos)[0]
+    pos += struct.calcsize(c)
+    return v
+rows = {}
+for name, count, props in elements:
+    rows[name] = []
+    for _ in range(count):
+        r = {}
+        for p in props:
+            if p[0] == 'list':
+                n = read(p[1])
+                r[p[3]] = [read(p[2]) for _ in range(n)]
+            else:
+                r[p[1]] = read(p[0])
+        rows[name].append(r)
+assert (pos == len(data)) if fmt != 'ascii' else (at == len(tokens))
+V, F, R = rows['vertex'], rows['face'], rows['feature']
+for f in F:
+    assert all(0 <= i < len(V) for i in f['vertex_indices'])
+    assert -1 <= f['region'] < len(R)
+for v in V:
+    assert -1 <= v['region'] < len(R) and 0 <= v['red'] <= 255
+for k, r in enumerate(R):
+    v = V[r['vertex']]
+    assert r['region'] == k and (v['x'], v['y'], v['z']) == (r['x'], r['y'], r['z'])
+    assert v['file_vertex'] == r['file_vertex']
+print(fmt, len(V), len(F), len(R), len({(f['red'], f['green'], f['blue']) for f in F}),
+      ' '.join(str(r['file_vertex']) for r in R))
+PY
+py=/usr/bin/python3
 run "$phks" segment a.off -o seg.ply; expect_rc 0 "segment"
 expect_out "regions of HKS"; expect_out "wrote seg.ply"
-head -1 seg.ply | grep -q '^ply$' || fail "seg.ply: no ply magic"
-grep -q '^element face 528$' seg.ply || fail "seg.ply: face count"
-grep -q '^property uchar red$' seg.ply || fail "seg.ply: no face colour"
-faces=$(awk 'NF == 7 && $1 == 3' seg.ply | wc -l)
-[ "$faces" -eq 528 ] || fail "seg.ply: $faces face lines"
-grep -q ' 255 255 255$' seg.ply || fail "seg.ply: no feature faces"
-colours=$(awk 'NF == 7 && $1 == 3 { print $5, $6, $7 }' seg.ply | sort -u |
-          wc -l)
-[ "$colours" -ge 3 ] || fail "seg.ply: only $colours colours"
+head -c 40 seg.ply | grep -q 'format binary_little_endian' ||
+    fail "seg.ply: not binary little-endian by default"
+info=$($py plyinfo.py seg.ply) || fail "seg.ply: not read back"
+set -- $info
+[ "$1 $2 $3" = "binary_little_endian 266 528" ] || fail "seg.ply: $info"
+[ "$4" -ge 3 ] && [ "$5" -ge 3 ] || fail "seg.ply: regions/colours $info"
+run "$phks" segment a.off -o seg.ply --ascii --regions 4 --time 20 --json
+expect_rc 0 "segment --ascii --regions 4 --time 20 --json"
+$py -c 'import json,sys; d=json.load(sys.stdin)
+assert d["region_count"] == 4 == len(d["regions"]) and d["time"] == 20
+assert d["format"] == "ascii" and d["vertices"] == 266
+assert sum(r["triangles"] for r in d["regions"]) <= 528
+assert all(0 <= r["vertex"] < 266 and r["hks"] > 0 for r in d["regions"])
+print(" ".join(str(r["vertex"]) for r in d["regions"]))' < out > ids ||
+    fail "segment --json"
+info=$($py plyinfo.py seg.ply) || fail "ascii seg.ply: not read back"
+set -- $info
+[ "$1 $2 $3 $4" = "ascii 266 528 4" ] || fail "ascii seg.ply: $info"
+shift 5
+[ "$*" = "$(cat ids)" ] || fail "segment: feature vertices $* not $(cat ids)"
+run "$phks" segment a.off -o seg.obj; expect_rc 1 "segment -o seg.obj"
+expect_err "seg.obj: segment writes PLY only"
+[ -e seg.obj ] && fail "segment wrote seg.obj"
+run "$phks" segment a.off -o x.ply --regions 0; expect_rc 2 "--regions 0"
+run "$phks" segment a.off -o x.ply --time -1; expect_rc 2 "--time -1"
 run "$phks" segment a.off; expect_rc 2 "segment without -o"
 expect_err "usage: phks segment"
 run "$phks" segment bad.off -o x.ply; expect_rc 1 "segment of a bad mesh"
