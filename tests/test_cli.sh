@@ -106,6 +106,102 @@ printf 'PHKS garbage' > bad.sig
 run "$phks" signature bad.sig; expect_rc 1 "bad blob"
 expect_err "^phks: bad.sig: "
 
+# ---- --json, and vertex ids in the file's numbering ---------------------------
+py=/usr/bin/python3
+run "$phks" signature a.off --json -o a.sig; expect_rc 0 "signature --json"
+$py -c 'import json,sys; d=json.load(sys.stdin)
+assert d["vertex_ids"] == "file" and d["vertices"] == 266
+assert d["output"] == "a.sig" and d["options"]["hks_scaling"] == "local-area"
+assert d["feature_count"] == len(d["features"]) > 0
+for f in d["features"]:
+    assert len(f["vector"]) == 15 and 0 <= f["vertex"] < 266
+    assert len(f["position"]) == 3
+assert d["features"][0]["persistence"] is None   # infinite
+print(" ".join(str(f["vertex"]) for f in d["features"]))' < out > a.ids ||
+    fail "signature --json"
+# The same mesh behind 5 unused vertices: every id moves by 5, and the
+# position printed is the file's vertex at that id.
+awk 'NR == 1 { print; next }
+     NR == 2 { print $1 + 5, $2, $3; for (i = 0; i < 5; i++) print 9, 9, i; next }
+     NF == 3 && n < 266 { n++; print; next }
+     { print $1, $2 + 5, $3 + 5, $4 + 5 }' a.off > shifted.off
+run "$phks" signature shifted.off --json; expect_rc 0 "signature of shifted.off"
+$py -c 'import json,sys
+d = json.load(open("out"))
+lines = open("shifted.off").read().split("\n")
+ids = [int(i) for i in open("a.ids").read().split()]
+assert [f["vertex"] for f in d["features"]] == [i + 5 for i in ids], "ids"
+for f in d["features"]:
+    xyz = [float(x) for x in lines[2 + f["vertex"]].split()]
+    assert xyz == f["position"], (xyz, f["position"])' ||
+    fail "shifted.off: ids not in the file's numbering"
+run "$phks" signature shifted.off; expect_rc 0 "signature text of shifted.off"
+first=$(cut -d' ' -f1 a.ids)
+expect_out "^ *0 *$((first + 5)) "
+run "$phks" signature a.sig --json; expect_rc 0 "signature --json of a blob"
+$py -c 'import json,sys; d=json.load(sys.stdin)
+assert d["vertex_ids"] == "cleaned" and d["source"] == "signature"' < out ||
+    fail "blob --json"
+run "$phks" match a.off b.off --json; expect_rc 0 "match --json"
+cp out match.json
+run "$phks" match a.off b.off; expect_rc 0 "match text"
+text_score=$(sed -n 's/^score //p' out)
+$py -c 'import json,sys; d=json.load(open("match.json"))
+assert "%.6g" % d["score"] == sys.argv[1], (d["score"], sys.argv[1])
+c = d["correspondences"]
+assert abs(sum(x["distance"] for x in c) - d["score"]) < 1e-9 * d["score"]
+assert {x["direction"] for x in c} == {"a_to_b", "b_to_a"}
+for x in c:
+    assert 0 <= x["vertex_a"] < 266 and 0 <= x["vertex_b"] < 266
+    assert len(x["position_a"]) == 3 == len(x["position_b"])' "$text_score" ||
+    fail "match --json against the text score $text_score"
+run "$phks" match shifted.off a.off --json; expect_rc 0 "match shifted.off"
+$py -c 'import json,sys; d=json.load(sys.stdin); assert d["score"] == 0
+assert all(x["vertex_a"] == x["vertex_b"] + 5 for x in d["correspondences"])' \
+    < out || fail "match: ids of shifted.off not shifted"
+
+# ---- progress -----------------------------------------------------------------
+run "$phks" --progress signature a.off --json; expect_rc 0 "--progress"
+expect_err "^phks: a.off: eigen-decomposition$"; expect_err "^phks: a.off: done$"
+$py -c 'import json,sys; json.load(sys.stdin)' < out ||
+    fail "--progress: stdout is not clean JSON"
+run "$phks" signature a.off --json; expect_rc 0 "no terminal, no progress"
+[ -s err ] && fail "progress without a terminal or --progress"
+run "$phks" segment a.off -o p.ply --json --progress; expect_rc 0 \
+    "segment --progress"
+expect_err "a.off: regions$"
+$py -c 'import json,sys; json.load(sys.stdin)' < out || fail "segment stdout"
+run "$phks" --progress --no-progress match a.off b.off; expect_rc 0 \
+    "--no-progress"
+[ -s err ] && fail "--no-progress printed progress"
+
+# ---- OBJ with several objects ---------------------------------------------------
+awk 'NR > 2 && NF == 3 { print "v", $0 }' a.off > two.obj
+awk 'NR > 2 && NF == 3 { print "v", $0 }' b.off >> two.obj
+echo "o first" >> two.obj
+awk 'NR > 2 && NF == 4 { print "f", $2 + 1, $3 + 1, $4 + 1 }' a.off >> two.obj
+echo "o second" >> two.obj
+awk 'NR > 2 && NF == 4 { print "f", $2 + 267, $3 + 267, $4 + 267 }' b.off >> two.obj
+run "$phks" signature two.obj; expect_rc 0 "signature of two objects"
+expect_err "two.obj: note: 2 objects or groups (first, second) merged into one shape"
+expect_out "532 vertices, 1056 triangles"
+run "$phks" --object second signature two.obj -o second.sig; expect_rc 0 \
+    "--object second"
+[ -s err ] && fail "--object: a note"
+expect_out "266 vertices, 528 triangles"
+run "$phks" match second.sig b.off --json; expect_rc 0 "second against b.off"
+$py -c 'import json,sys; d=json.load(sys.stdin); assert d["score"] == 0' < out ||
+    fail "--object second is not b.off"
+run "$phks" --object first signature two.obj --json; expect_rc 0 "--object first"
+$py -c 'import json,sys; d=json.load(sys.stdin)
+ids = [int(i) for i in open("a.ids").read().split()]
+assert [f["vertex"] for f in d["features"]] == ids' < out ||
+    fail "--object first: not a.off's features"
+run "$phks" --object third signature two.obj; expect_rc 1 "--object third"
+expect_err "no object or group named third (it has: first, second)"
+run "$phks" --object first signature a.off; expect_rc 1 "--object on OFF"
+expect_err "applies to uncompressed OBJ files only"
+
 # ---- match ------------------------------------------------------------------
 run "$phks" match a.off b.off; expect_rc 0 "match meshes"
 expect_out "^score "; expect_out "position in A"
