@@ -90,6 +90,24 @@ run "$phks" --operator sideways signature a.off; expect_rc 2 "bad operator"
 expect_err "phks: --operator: bad or missing value sideways"
 run "$phks" signature a.off --threads; expect_rc 2 "--threads without value"
 
+# ---- --help of every command ----------------------------------------------------
+for cmd in signature match segment bench db "db add" "db query" "db list" \
+           "db info" "db remove"; do
+    for h in --help -h; do
+        # shellcheck disable=SC2086 # "db add" is two words
+        run "$phks" $cmd $h; expect_rc 0 "$cmd $h"
+        expect_out "^usage: phks $cmd"
+        [ -s err ] && fail "$cmd $h: stderr"
+    done
+done
+run "$phks" --help; expect_out "(local-area)"; expect_out "--progress"
+expect_out "db info DB"; expect_out "-k K (10)"
+run "$phks" segment --help; expect_out "--regions N .*(15)"
+expect_out "--time T .*(5)"; expect_out "--ascii .*(binary little-endian)"
+run "$phks" db query --help; expect_out "-k K .*(10)"
+run "$phks" db add --help; expect_out "--allow-duplicates"
+run "$phks" bench --help; expect_out "--seeds N .*(1)"; expect_out "(psb/)"
+
 # ---- signature --------------------------------------------------------------
 run "$phks" signature a.off -o a.sig; expect_rc 0 "signature"
 expect_out "a.off: 266 vertices, 528 triangles"
@@ -339,6 +357,56 @@ run "$phks" db add plain.db b.off -j 1; expect_rc 0 \
 run "$phks" db query plain.db b.off -k 1; expect_rc 0 \
     "db query with the defaults of a database made with none"
 expect_out "^ *1 *2 *0 .* b.off$"
+run "$phks" --hks-scaling none db add t.db b.off -j 1; expect_rc 1 \
+    "db add with an explicit option the database differs in"
+expect_err "^phks: t.db: --hks-scaling none given, but the database's signatures were made with --hks-scaling local-area"
+run "$phks" --operator literal db query t.db b.off; expect_rc 1 \
+    "db query with an explicit option the database differs in"
+expect_err "^phks: t.db: --operator literal given, .* --operator random-walk"
+run "$phks" --hks-scaling local-area db query t.db b.off -k 1; expect_rc 0 \
+    "an explicit option equal to the database's"
+# A blob made with other options: the library's message, in full, plus the
+# values in the tool's words.
+run "$phks" --hks-scaling none signature a.off -o none.sig; expect_rc 0
+run "$phks" db add t.db none.sig; expect_rc 1 "db add of an incompatible blob"
+expect_err "^phks: none.sig: .*(hks_scaling 0 against 2); phks option --hks-scaling: none against local-area"
+# Blobs, directories, duplicates.
+mkdir -p tree/sub tree/sub/deeper
+cp a.off tree/sub/z.off; cp a.sig tree/a.sig; cp b.off tree/sub/deeper/b.off
+cp a.off tree/readme.txt
+run "$phks" db add d.db tree -j 1; expect_rc 0 "db add of a directory"
+expect_out "^added 1 tree/a.sig$"; expect_out "^added 2 tree/sub/deeper/b.off$"
+expect_out "^skipped tree/sub/z.off: the same signature as entry 1$"
+expect_out "^d.db: 2 added, 0 failed, skipped 1 duplicate$"
+grep -q readme out && fail "db add took readme.txt"
+run "$phks" db add d.db a.off b.off tree -j 2; expect_rc 0 "db add again"
+expect_out "^d.db: 0 added, 0 failed, skipped 5 duplicates$"
+run "$phks" db add d.db a.sig --allow-duplicates; expect_rc 0 \
+    "db add --allow-duplicates"
+expect_out "^added 3 a.sig$"
+run "$phks" db list d.db --json; expect_rc 0 "db list --json"
+$py -c 'import json,sys; d=json.load(sys.stdin)
+assert [e["id"] for e in d] == [1, 2, 3]
+assert [e["name"] for e in d] == ["tree/a.sig", "tree/sub/deeper/b.off", "a.sig"]
+assert all(e["label"] == "" and e["features"] > 0 for e in d)' < out ||
+    fail "db list --json"
+run "$phks" --progress db add p.db a.off b.off -j 1; expect_rc 0 \
+    "db add --progress"
+expect_err "^phks: 2/2 files$"
+run "$phks" db info d.db; expect_rc 0 "db info"
+expect_out "^path *d.db$"; expect_out "^format *1$"; expect_out "^entries *3$"
+expect_out "^options *operator random-walk, .*HKS scaling local-area"
+run "$phks" db info plain.db --json; expect_rc 0 "db info --json"
+$py -c 'import json,sys; d=json.load(sys.stdin)
+assert d["path"] == "plain.db" and d["format"] == 1 and d["entries"] == 2
+o = d["options"]
+assert o["hks_scaling"] == "none" and o["operator"] == "random-walk"
+assert o["feature_count"] == 15 and len(o["scales"]) == 15 and o["tau"] == 0.0002
+assert o["boundary_margin"] == 2 and o["box"] == "principal"' < out ||
+    fail "db info --json"
+run "$phks" db info missing.db; expect_rc 1 "db info of no db"
+grep -q 'PHKS_' err && fail "a C identifier in a message"
+expect_err "phks: missing.db: .*phks db add. creates a database"
 run "$phks" db query missing.db a.off; expect_rc 1 "db query of no db"
 expect_err "^phks: missing.db: "
 run "$phks" db query bad.off a.off; expect_rc 1 "db query of a non-db"
@@ -371,6 +439,24 @@ run "$phks" bench set/MANIFEST.tsv --prefix "" --cache cache \
 expect_rc 0 "bench from the cache"
 expect_out "Signatures: 0 computed, 12 from the cache"
 cmp -s q.tsv q1.tsv || fail "bench: results differ with the cache and -j 1"
+run "$phks" bench set/MANIFEST.tsv --prefix "" --cache cache -j 1 --json \
+    --progress
+expect_rc 0 "bench --json"
+expect_err "^phks: 12/12 signatures$"
+$py -c 'import json,sys; d=json.load(sys.stdin)
+assert d["signatures"] == {"computed": 0, "cached": 12, "failed": 0}
+assert d["models"] == 8 and d["query_models"] == 2 and d["queries_per_seed"] == 6
+p = d["pooled"]
+rows = {r["queries"]: r for r in p["retrieval"]}
+assert list(rows) == ["complete", "partial", "incomplete", "partial+incomplete", "all"]
+assert rows["all"]["n"] + rows["all"]["failed"] == 6
+assert rows["all"]["n"] == sum(rows[k]["n"] for k in ("complete", "partial", "incomplete"))
+assert len(d["seeds"]) == 1 and d["seeds"][0]["results"] == p
+assert p["database"]["entries"] == 6 and len(p["cut"]) == 3
+print("| all | %d | %d |" % (rows["all"]["n"], rows["all"]["failed"]))' \
+    < out > all_row || fail "bench --json"
+run "$phks" bench set/MANIFEST.tsv --prefix "" --cache cache -j 1
+expect_out "^$(cat all_row)"
 run "$phks" bench set/MANIFEST.tsv --prefix "" --seeds 2 --classes star \
     --max-per-class 4
 expect_rc 0 "bench --seeds 2"
