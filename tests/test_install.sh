@@ -4,7 +4,9 @@
 # Installs the build into a scratch DESTDIR, then builds and runs
 # tests/install_smoke.c against the installed files only:
 #   1. with `cc install_smoke.c $(pkg-config --cflags --libs phks)`,
-#   2. with CMake: find_package(phks CONFIG REQUIRED) and phks::phks.
+#   2. with CMake: find_package(phks CONFIG REQUIRED) and phks::phks;
+# and runs the installed `phks --version` without LD_LIBRARY_PATH (its
+# RPATH, $ORIGIN/../LIBDIR, finds the library from any prefix).
 # Exit status: 0 passed, 1 failed, 77 skipped (a tool is missing).
 set -eu
 
@@ -91,6 +93,23 @@ run_smoke() {
     fi
     LD_LIBRARY_PATH=$libdir "$1" || fail "$1 failed"
 }
+
+# --- the tool: starts from the staged prefix through its RPATH ---------------
+tool=$(find "$stage" -name phks -type f -path '*/bin/*' | head -n 1)
+[ -n "$tool" ] || fail "the phks tool was not installed"
+if command -v ldd >/dev/null 2>&1; then
+    used=$(env -u LD_LIBRARY_PATH ldd "$tool" | grep 'libphks\.so' || true)
+    case $used in
+        *"$stage"*) ;;
+        *) fail "$tool does not find the staged libphks by itself: $used" ;;
+    esac
+fi
+out=$(env -u LD_LIBRARY_PATH "$tool" --version) ||
+    fail "$tool --version without LD_LIBRARY_PATH"
+case $out in
+    *"libphks $version"*) echo "tool: $out" ;;
+    *) fail "$tool --version printed: $out" ;;
+esac
 
 # --- pkg-config ----------------------------------------------------------
 # pkgconf puts PKG_CONFIG_SYSROOT_DIR before the -I and -L paths; keep the
