@@ -415,7 +415,7 @@ run "$phks" db remove t.db 1; expect_rc 0 "db remove"
 run "$phks" db list t.db; expect_rc 0 "db list after remove"
 grep -q 'a.off' out && fail "db remove: a.off still listed"
 run "$phks" db remove t.db 1; expect_rc 1 "db remove of a removed id"
-expect_err "^phks: t.db: "
+expect_err "^phks: t.db: no entry with id 1$"
 run "$phks" db remove t.db one; expect_rc 2 "db remove of a non-number"
 run "$phks" db frob t.db; expect_rc 2 "unknown db command"
 

@@ -47,6 +47,13 @@ static const char *value_name(const char *field, double v)
 
 static void reword(char *buf, size_t size)
 {
+    /* "phks_db_add: ..." names a C function: the command already says
+     * what was done. */
+    if (strncmp(buf, "phks_", 5) == 0) {
+        size_t n = strspn(buf + 5, "abcdefghijklmnopqrstuvwxyz_") + 5;
+        if (buf[n] == ':' && buf[n + 1] == ' ')
+            memmove(buf, buf + n + 2, strlen(buf + n + 2) + 1);
+    }
     for (size_t i = 0; i < sizeof rewording / sizeof rewording[0]; i++) {
         char *at = strstr(buf, rewording[i].from);
         if (!at)
