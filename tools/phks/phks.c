@@ -6,6 +6,7 @@
  *   phks [global options] COMMAND ARGS...  (global options anywhere)
  */
 #include "cli.h"
+#include "cli_render.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -17,6 +18,7 @@ static const char usage_text[] =
     "  phks signature MESH [-o SIG]\n"
     "  phks match A B                  (meshes or .sig files)\n"
     "  phks segment MESH -o OUT.ply\n"
+    "  phks render MESH [MESH_B] -o OUT.png [--size WxH] [--regions N] [--time T]\n"
     "  phks db add DB FILES... [--label L] [-j N]\n"
     "  phks db add DB --manifest TSV [-j N]\n"
     "  phks db query DB MESH|SIG [-k K] [--json]\n"
@@ -124,6 +126,7 @@ int main(int argc, char **argv)
         {"signature", cli_signature}, {"match", cli_match},
         {"segment", cli_segment},     {"db", cli_db},
         {"bench", cli_bench},
+        {"render", cli_render},
     };
     for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++)
         if (strcmp(cmd, commands[i].name) == 0)
