@@ -88,6 +88,8 @@ static int db_query(int argc, char **argv, const phks_options *defaults)
     if (cli_parse(argc, argv, 1, opts, 3, &n) != 0 || n != 2 ||
         cli_parse_count(k_text, 1, 1000000, &k) != 0)
         return cli_usage("db query DB MESH|SIG [-k K] [--json] [--png OUT.png]");
+    if (png && !cli_png_supported())
+        return cli_png_write(png, NULL);  /* "built without PNG support" */
     phks_db *db;
     phks_status st = phks_db_open(argv[1], PHKS_DB_READONLY, &db);
     if (st != PHKS_OK)

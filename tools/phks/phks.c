@@ -21,7 +21,7 @@ static const char usage_text[] =
     "  phks render MESH [MESH_B] -o OUT.png [--size WxH] [--regions N] [--time T]\n"
     "  phks db add DB FILES... [--label L] [-j N]\n"
     "  phks db add DB --manifest TSV [-j N]\n"
-    "  phks db query DB MESH|SIG [-k K] [--json]\n"
+    "  phks db query DB MESH|SIG [-k K] [--json] [--png OUT.png]\n"
     "  phks db list DB\n"
     "  phks db remove DB ID...\n"
     "  phks bench MANIFEST [--prefix P] [--classes A,B] [--max-per-class M]\n"
