@@ -11,8 +11,6 @@
 #include "cli_render.h"
 #include "cli.h"
 
-#include <errno.h>
-#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -33,10 +31,21 @@ int cli_parse_size(const char *text, int *w, int *h)
     if (*end != 'x' || end[1] < '0' || end[1] > '9')
         return -1;
     unsigned long b = strtoul(end + 1, &end, 10);
-    if (*end || a < 16 || b < 16 || a > 8192 || b > 8192)
+    if (*end || a < 16 || b < 16 || a > 4096 || b > 4096)
         return -1;
     *w = (int)a;
     *h = (int)b;
+    return 0;
+}
+
+/* A time in units of tau, 0..1e9; 0, or -1. */
+static int parse_time(const char *text, double *time)
+{
+    char *end;
+    double t = strtod(text, &end);
+    if (end == text || *end || !(t >= 0 && t <= 1e9))
+        return -1;
+    *time = t;
     return 0;
 }
 
@@ -179,13 +188,11 @@ int cli_render(int argc, char **argv, const phks_options *options)
     int n, w, h;
     unsigned long regions = options->feature_count;
     double time = options->feature_scale;
-    char *end = NULL;
     if (cli_parse(argc, argv, 1, opts, 4, &n) != 0 || n < 1 || n > 2 || !out ||
         cli_parse_size(size, &w, &h) != 0 ||
         (regions_text &&
          cli_parse_count(regions_text, 1, 100000, &regions) != 0) ||
-        (time_text && (time = strtod(time_text, &end), *end || end == time_text ||
-                       !(time >= 0 && time <= 1e9))))
+        (time_text && parse_time(time_text, &time) != 0))
         return cli_usage(usage);
     if (!cli_png_supported())
         return cli_png_write(out, NULL);

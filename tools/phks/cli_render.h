@@ -75,13 +75,15 @@ typedef struct cli_view {
     double scale;      /* pixels per input unit                          */
     double ox, oy;     /* pixel position of the projected centre          */
     int x, y, w, h;    /* the tile, in the image                          */
-    double *depth;     /* the tile's z-buffer (w * h), after drawing      */
+    int ss;            /* samples per pixel along each axis               */
+    double *depth;     /* the tile's z-buffer (ss w by ss h), after drawing */
 } cli_view;
 
 /* Draws mesh into the tile (x, y, w, h) of im: each triangle flat-shaded,
  * colour face_rgb[3 t..] (NULL: light grey) times 0.35 + 0.65 |n . l|
  * (two-sided Lambert, l from the upper left front), with a z-buffer,
- * rendered at 3x and averaged down. view receives the projection; free
+ * rendered at 3x3 samples per pixel (fewer on tiles above 1.7M pixels)
+ * and averaged down. view receives the projection; free
  * it with cli_view_free. 0, or -1 when out of memory. */
 int cli_draw_mesh(cli_image *im, int x, int y, int w, int h,
                   const phks_mesh *mesh, const unsigned char *face_rgb,
@@ -112,7 +114,7 @@ int cli_png_write(const char *path, const cli_image *im);
 /* ---- commands ------------------------------------------------------------- */
 /* phks render MESH [B] -o OUT.png [--size WxH] [--regions N] [--time T] */
 int cli_render(int argc, char **argv, const phks_options *options);
-/* Parses "WxH" (each 16..8192); 0, or -1. */
+/* Parses "WxH" (each 16..4096); 0, or -1. */
 int cli_parse_size(const char *text, int *w, int *h);
 
 /* The contact sheet of `db query --png`: the query (mesh_path, a mesh or a

@@ -2,7 +2,7 @@
  * cli_view.c - a mesh's view and its drawing for `phks` pictures: the
  * principal-axes frame, the fixed oblique orthographic projection, a
  * z-buffered rasteriser with two-sided Lambert shading by face normal at
- * 3x3 samples per pixel, the feature markers and the region palette.
+ * up to 3x3 samples per pixel, the feature markers and the region palette.
  */
 #include "cli_render.h"
 
@@ -10,7 +10,13 @@
 #include <stdlib.h>
 #include <string.h>
 
-enum { SS = 3 };  /* samples per pixel along each axis */
+/* Samples per pixel along each axis: 3, fewer on large tiles, so that a
+ * tile never takes more than 16M samples. */
+static int samples(int w, int h)
+{
+    double px = (double)w * h;
+    return px * 9 <= 16e6 ? 3 : px * 4 <= 16e6 ? 2 : 1;
+}
 
 const unsigned char cli_marker_rgb[3] = {0, 0, 0};
 
@@ -238,7 +244,7 @@ static void fit(const phks_mesh *mesh, cli_view *view)
     view->oy = view->y + view->h / 2.0 + view->scale * (lo[1] + hi[1]) / 2;
 }
 
-static void raster(cli_image *ss, double *depth, const double a[3],
+static void raster(cli_image *fine, double *depth, const double a[3],
                    const double b[3], const double c[3],
                    const unsigned char rgb[3])
 {
@@ -251,8 +257,8 @@ static void raster(cli_image *ss, double *depth, const double a[3],
     int j1 = (int)ceil(fmax(a[1], fmax(b[1], c[1])));
     i0 = i0 < 0 ? 0 : i0;
     j0 = j0 < 0 ? 0 : j0;
-    i1 = i1 >= ss->width ? ss->width - 1 : i1;
-    j1 = j1 >= ss->height ? ss->height - 1 : j1;
+    i1 = i1 >= fine->width ? fine->width - 1 : i1;
+    j1 = j1 >= fine->height ? fine->height - 1 : j1;
     for (int j = j0; j <= j1; j++)
         for (int i = i0; i <= i1; i++) {
             double x = i + 0.5, y = j + 0.5;
@@ -262,10 +268,10 @@ static void raster(cli_image *ss, double *depth, const double a[3],
             if (w0 < 0 || w1 < 0 || w2 < 0)
                 continue;
             double z = w0 * a[2] + w1 * b[2] + w2 * c[2];
-            size_t at = (size_t)j * (size_t)ss->width + (size_t)i;
+            size_t at = (size_t)j * (size_t)fine->width + (size_t)i;
             if (z > depth[at]) {
                 depth[at] = z;
-                memcpy(ss->rgb + 3 * at, rgb, 3);
+                memcpy(fine->rgb + 3 * at, rgb, 3);
             }
         }
 }
@@ -296,25 +302,27 @@ int cli_draw_mesh(cli_image *im, int x, int y, int w, int h,
     view->y = y;
     view->w = w;
     view->h = h;
+    view->ss = samples(w, h);
     view_rotation(mesh, view);
     fit(mesh, view);
     size_t n = phks_mesh_vertex_count(mesh), m = phks_mesh_triangle_count(mesh);
     const double *xyz = phks_mesh_vertices(mesh);
     const uint32_t *tri = phks_mesh_triangles(mesh);
-    cli_image ss;
+    const int ss = view->ss;
+    cli_image fine;
     double *p = malloc(3 * n * sizeof *p);
-    view->depth = malloc((size_t)SS * w * SS * h * sizeof *view->depth);
-    if (!p || !view->depth || cli_image_init(&ss, SS * w, SS * h) != 0) {
+    view->depth = malloc((size_t)ss * w * ss * h * sizeof *view->depth);
+    if (!p || !view->depth || cli_image_init(&fine, ss * w, ss * h) != 0) {
         free(p);
         cli_view_free(view);
         return -1;
     }
-    for (size_t i = 0; i < (size_t)SS * w * SS * h; i++)
+    for (size_t i = 0; i < (size_t)ss * w * ss * h; i++)
         view->depth[i] = -INFINITY;
     for (size_t v = 0; v < n; v++) {
         local(view, xyz + 3 * v, p + 3 * v);
         for (int k = 0; k < 3; k++)
-            p[3 * v + k] *= SS;
+            p[3 * v + k] *= ss;
     }
     static const unsigned char grey[3] = {200, 200, 205};
     for (size_t t = 0; t < m; t++) {
@@ -323,10 +331,10 @@ int cli_draw_mesh(cli_image *im, int x, int y, int w, int h,
                      *c = p + 3 * (size_t)tri[3 * t + 2];
         unsigned char rgb[3];
         shade(a, b, c, face_rgb ? face_rgb + 3 * t : grey, rgb);
-        raster(&ss, view->depth, a, b, c, rgb);
+        raster(&fine, view->depth, a, b, c, rgb);
     }
-    cli_downsample(im, x, y, &ss, SS);
-    cli_image_free(&ss);
+    cli_downsample(im, x, y, &fine, ss);
+    cli_image_free(&fine);
     free(p);
     return 0;
 }
@@ -341,6 +349,7 @@ int cli_view_project(const cli_view *view, const double p[3], double *px,
                      double *py)
 {
     double q[3];
+    const int ss = view->ss;
     local(view, p, q);
     *px = q[0] + view->x;
     *py = q[1] + view->y;
@@ -348,13 +357,13 @@ int cli_view_project(const cli_view *view, const double p[3], double *px,
         return 1;
     /* Visible when, somewhere within 3 samples, the surface is not in front
      * of it by more than 1% of the tile. */
-    double tol = 0.01 * SS * (view->w > view->h ? view->w : view->h);
-    int ci = (int)floor(q[0] * SS), cj = (int)floor(q[1] * SS);
+    double tol = 0.01 * ss * (view->w > view->h ? view->w : view->h);
+    int ci = (int)floor(q[0] * ss), cj = (int)floor(q[1] * ss);
     for (int j = cj - 3; j <= cj + 3; j++)
         for (int i = ci - 3; i <= ci + 3; i++) {
-            if (i < 0 || j < 0 || i >= SS * view->w || j >= SS * view->h)
+            if (i < 0 || j < 0 || i >= ss * view->w || j >= ss * view->h)
                 continue;
-            if (view->depth[(size_t)j * SS * view->w + i] <= q[2] * SS + tol)
+            if (view->depth[(size_t)j * ss * view->w + i] <= q[2] * ss + tol)
                 return 1;
         }
     return 0;
