@@ -200,6 +200,10 @@ int cli_render(int argc, char **argv, const phks_options *options)
     int rc = 0;
     for (int i = 0; i < n && rc == 0; i++) {
         pic[i].path = argv[1 + i];
+        if (cli_is_blob(pic[i].path)) {
+            rc = cli_error(pic[i].path, "a signature blob: no mesh to draw");
+            break;
+        }
         phks_status st = phks_mesh_load(pic[i].path, &pic[i].mesh);
         if (st == PHKS_OK)
             st = compute(&pic[i], options, regions, time);
