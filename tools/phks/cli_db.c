@@ -3,6 +3,7 @@
  * in cli_db_add.c): shape databases through the phks_db_* functions.
  */
 #include "cli.h"
+#include "cli_render.h"
 
 #include <inttypes.h>
 #include <stdlib.h>
@@ -11,9 +12,10 @@
 #define PAGE 256
 
 static const char query_usage[] =
-    "db query DB MESH|SIG [-k K] [--json]\n"
-    "  -k K      the K best entries, 1..1000000 (10)\n"
-    "  --json    print the hits as JSON (text)\n"
+    "db query DB MESH|SIG [-k K] [--json] [--png OUT.png]\n"
+    "  -k K           the K best entries, 1..1000000 (10)\n"
+    "  --json         print the hits as JSON (text)\n"
+    "  --png OUT.png  also draw a contact sheet of the query and its hits\n"
     "  the signature of a mesh is computed with the database's options";
 static const char list_usage[] =
     "db list DB [--json]\n"
@@ -104,15 +106,18 @@ int cli_db_options(phks_db *db, const char *path, phks_options *options)
 
 static int db_query(int argc, char **argv, const phks_options *defaults)
 {
-    const char *k_text = "10";
+    const char *k_text = "10", *png = NULL;
     int json = 0, n;
-    const cli_opt opts[] = {{"-k", &k_text, NULL}, {"--json", NULL, &json}};
+    const cli_opt opts[] = {{"-k", &k_text, NULL}, {"--json", NULL, &json},
+                            {"--png", &png, NULL}};
     unsigned long k;
     if (cli_help(argc, argv, query_usage))
         return 0;
-    if (cli_parse(argc, argv, 1, opts, 2, &n) != 0 || n != 2 ||
+    if (cli_parse(argc, argv, 1, opts, 3, &n) != 0 || n != 2 ||
         cli_parse_count(k_text, 1, 1000000, &k) != 0)
         return cli_usage(query_usage);
+    if (png && !cli_png_supported())
+        return cli_png_write(png, NULL);  /* "built without PNG support" */
     phks_db *db;
     phks_status st = phks_db_open(argv[1], PHKS_DB_READONLY, &db);
     if (st != PHKS_OK)
@@ -138,7 +143,7 @@ static int db_query(int argc, char **argv, const phks_options *defaults)
         cli_fail(argv[1], st);
     else if (hits) {
         print_hits(hits, count, json);
-        rc = 0;
+        rc = png ? cli_sheet_write(png, db, argv[2], query, hits, count) : 0;
     }
     free(hits);
     phks_signature_free(query);

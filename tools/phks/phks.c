@@ -6,6 +6,7 @@
  *   phks [global options] COMMAND ARGS...  (global options anywhere)
  */
 #include "cli.h"
+#include "cli_render.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -26,10 +27,12 @@ static const char usage_text[] =
     "  phks match A B [--json]              (meshes or .sig files)\n"
     "  phks segment MESH -o OUT.ply [--regions N (15)] [--time T (5)]\n"
     "               [--ascii] [--json]\n"
+    "  phks render MESH [MESH_B] -o OUT.png [--size WxH (480x360)]\n"
+    "              [--regions N (15)] [--time T (5)]\n"
     "  phks db add DB FILES|DIRS... [--label L] [-j N (CPUs)]\n"
     "              [--allow-duplicates]\n"
     "  phks db add DB --manifest TSV [-j N (CPUs)] [--allow-duplicates]\n"
-    "  phks db query DB MESH|SIG [-k K (10)] [--json]\n"
+    "  phks db query DB MESH|SIG [-k K (10)] [--json] [--png OUT.png]\n"
     "  phks db list DB [--json]\n"
     "  phks db info DB [--json]\n"
     "  phks db remove DB ID...\n"
@@ -158,6 +161,7 @@ int main(int argc, char **argv)
         {"signature", cli_signature}, {"match", cli_match},
         {"segment", cli_segment},     {"db", cli_db},
         {"bench", cli_bench},
+        {"render", cli_render},
     };
     for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++)
         if (strcmp(cmd, commands[i].name) == 0)
