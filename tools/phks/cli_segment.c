@@ -7,6 +7,7 @@
  * own. Vertex ids printed are the input file's.
  */
 #include "cli.h"
+#include "cli_render.h"
 
 #include <errno.h>
 #include <math.h>
@@ -29,33 +30,6 @@ typedef struct segmentation {
     uint32_t *region;  /* per triangle; UINT32_MAX: no region */
     uint32_t *vertex_region; /* per vertex: most of its triangles' */
 } segmentation;
-
-/* Kelly's colours of maximum contrast without white, black and grey; then
- * hues spaced by the golden angle. */
-static void region_colour(uint32_t r, unsigned char rgb[3])
-{
-    static const unsigned char kelly[][3] = {
-        {243, 195, 0},   {135, 86, 146},  {243, 132, 0},   {161, 202, 241},
-        {190, 0, 50},    {194, 178, 128}, {0, 136, 86},    {230, 143, 172},
-        {0, 103, 165},   {249, 147, 121}, {96, 78, 151},   {246, 166, 0},
-        {179, 68, 108},  {220, 211, 0},   {136, 45, 23},   {141, 182, 0},
-        {101, 69, 34},   {226, 88, 34},   {43, 61, 38},
-    };
-    enum { K = sizeof kelly / sizeof kelly[0] };
-    if (r == UINT32_MAX) {
-        rgb[0] = rgb[1] = rgb[2] = 128;
-        return;
-    }
-    if (r < K) {
-        memcpy(rgb, kelly[r], 3);
-        return;
-    }
-    double h = fmod((r - K) * 0.618033988749895, 1.0) * 6, f = h - floor(h);
-    double v[6][3] = {{1, f, 0}, {1 - f, 1, 0}, {0, 1, f},
-                      {0, 1 - f, 1}, {f, 0, 1}, {1, 0, 1 - f}};
-    for (int c = 0; c < 3; c++)
-        rgb[c] = (unsigned char)(40 + 170 * v[(int)h % 6][c]);
-}
 
 static phks_status segment(const phks_mesh *mesh, const phks_options *o,
                            size_t regions, double time, const char *what,
@@ -200,7 +174,7 @@ static void write_ply(FILE *f, const phks_mesh *mesh, const segmentation *seg,
             seg->count);
     for (size_t v = 0; v < n; v++) {
         unsigned char rgb[3];
-        region_colour(seg->vertex_region[v], rgb);
+        cli_region_colour(seg->vertex_region[v], rgb);
         put_xyz(f, xyz + 3 * v, ascii);
         int32_t r = region_int(seg->vertex_region[v]);
         uint32_t fv = cli_file_vertex(mesh, (uint32_t)v);
@@ -215,7 +189,7 @@ static void write_ply(FILE *f, const phks_mesh *mesh, const segmentation *seg,
     for (size_t t = 0; t < m; t++) {
         const uint32_t *c = tri + 3 * t;
         unsigned char rgb[3];
-        region_colour(seg->region[t], rgb);
+        cli_region_colour(seg->region[t], rgb);
         int32_t r = region_int(seg->region[t]);
         if (ascii)
             fprintf(f, "3 %u %u %u %d %u %u %u\n", c[0], c[1], c[2], r, rgb[0],

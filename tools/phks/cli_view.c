@@ -21,7 +21,8 @@ static int samples(int w, int h)
 const unsigned char cli_marker_rgb[3] = {0, 0, 0};
 
 /* Kelly's colours of maximum contrast without white, black and grey; then
- * hues spaced by the golden angle (as `phks segment`, cli_segment.c). */
+ * hues spaced by the golden angle: the regions of `phks render` and of
+ * `phks segment`'s PLY alike. */
 void cli_region_colour(uint32_t r, unsigned char rgb[3])
 {
     static const unsigned char kelly[][3] = {
