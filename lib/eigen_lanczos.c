@@ -561,6 +561,45 @@ static phks_status reduce_t(lanczos *L, size_t m)
     return PHKS_OK;
 }
 
+/* Every eigenvalue of the tridiagonal form (ascending, into theta), with
+ * its eigenvectors into ritz when `vectors`: what pairs_t does when MRRR
+ * gives up. MRRR fails (dstemr info 2x) where T has clusters of equal
+ * eigenvalues tighter than its representation tree can split, which is what
+ * an exactly symmetric mesh gives (2l + 1 equal values per degree on a
+ * geodesic sphere). Divide and conquer (dstedc) deflates such clusters
+ * instead of separating them, and its vectors are orthogonal to working
+ * precision whatever the clustering; implicit QL/QR (dsteqr) backs it up.
+ * Both cost a few times MRRR, and run only after it failed, so ordinary
+ * meshes keep MRRR's results bit for bit. */
+static phks_status pairs_t_fallback(lanczos *L, size_t m, bool vectors,
+                                    lapack_int mrrr_info)
+{
+    lapack_int info = 0;
+    for (int method = 0; method < 2; method++) {
+        memcpy(L->diag_work, L->diag, m * sizeof(double));
+        memcpy(L->off_work, L->off, m * sizeof(double));
+        if (!vectors)
+            info = LAPACKE_dsterf((lapack_int)m, L->diag_work, L->off_work);
+        else if (method == 0)
+            info = LAPACKE_dstedc(LAPACK_COL_MAJOR, 'I', (lapack_int)m,
+                                  L->diag_work, L->off_work, L->ritz,
+                                  (lapack_int)m);
+        else
+            info = LAPACKE_dsteqr(LAPACK_COL_MAJOR, 'I', (lapack_int)m,
+                                  L->diag_work, L->off_work, L->ritz,
+                                  (lapack_int)m);
+        if (info == 0) {
+            memcpy(L->theta, L->diag_work, m * sizeof(double));
+            return PHKS_OK;
+        }
+        if (!vectors)
+            break;
+    }
+    return phks_fail(PHKS_ERROR_SOLVER,
+                     "Lanczos: dstemr info %d, and %s info %d after it",
+                     (int)mrrr_info, vectors ? "dsteqr" : "dsterf", (int)info);
+}
+
 /* Eigenpairs il..iu (1-based, ascending) of T from reduce_t's tridiagonal
  * form: the values into theta, the last b rows of the eigenvectors into
  * bottom (b x count, for the residuals), and the eigenvectors of the
@@ -586,8 +625,12 @@ static phks_status pairs_t(lanczos *L, size_t m, size_t il, size_t iu,
         L->diag_work, L->off_work, 0, 0, (lapack_int)il, (lapack_int)iu, &found,
         L->theta, L->ritz, (lapack_int)m, (lapack_int)(all ? m : count),
         L->support, &tryrac);
-    if (info != 0 || (size_t)found != (all ? m : count))
-        return phks_fail(PHKS_ERROR_SOLVER, "Lanczos: dstemr info %d", (int)info);
+    if (info != 0 || (size_t)found != (all ? m : count)) {
+        phks_status st = pairs_t_fallback(L, m, vectors, info);
+        if (st != PHKS_OK)
+            return st;
+        all = true;
+    }
     if (all) {
         memmove(L->theta, L->theta + (il - 1), count * sizeof(double));
         memmove(L->ritz, L->ritz + (il - 1) * m, count * m * sizeof(double));
