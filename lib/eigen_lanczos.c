@@ -899,10 +899,11 @@ done:
 
 /* Rayleigh-Ritz with B on the q Ritz vectors Y = V S of the top of T.
  * values/vectors receive the k lowest pairs; *worst the largest residual
- * norm among them. */
+ * norm among them; *next the (k+1)-th value, an upper bound on
+ * lambda_{k+1} (q > k). */
 static phks_status rayleigh_ritz(lanczos *L, const engine *eng, size_t m,
                                  size_t q, size_t k, double *values,
-                                 double *vectors, double *worst)
+                                 double *vectors, double *worst, double *next)
 {
     size_t n = L->n, b = L->b;
     size_t qb = (q + b - 1) / b * b; /* padded to whole blocks */
@@ -966,6 +967,7 @@ static phks_status rayleigh_ritz(lanczos *L, const engine *eng, size_t m,
         values[e] = gv[e];
     }
     *worst = w;
+    *next = gv[k];
 done:
     phks_free(y);
     phks_free(by);
@@ -1034,7 +1036,7 @@ static phks_status solve(engine *eng, const filter *f, size_t k,
                          size_t guard, size_t cap, double norm,
                          const phks_options *opt,
                          double lo, double hi, double *values, double *vectors,
-                         bool *cut_low)
+                         double *next, bool *cut_low)
 {
     size_t n = eng->pm->n, b = BLOCK, q = k + guard;
     double tol = opt->tolerance * norm;
@@ -1079,6 +1081,15 @@ static phks_status solve(engine *eng, const filter *f, size_t k,
                 st = ritz_vectors(&L, m, 1 + q - k, k);
                 if (st != PHKS_OK)
                     break;
+                /* lambda_{k+1}'s estimate before ritz_vectors and
+                 * Rayleigh-Ritz reuse theta: the (k+1)-th largest Ritz
+                 * value of p(B) is at most p(lambda_{k+1}), so its
+                 * preimage is at least lambda_{k+1}; below 1 it lies
+                 * beyond the cut */
+                double theta_next = L.theta[q - k];
+                *next = f->degree > 1 && !(theta_next > 1)
+                            ? f->c - f->e
+                            : filter_inverse(f, theta_next);
                 st = ritz_pairs(&L, eng, f, m, q, k, values, vectors, &worst);
                 if (st == PHKS_OK &&
                     (worst > tol || (f->degree > 1 && values[k - 1] >= f->c - f->e))) {
@@ -1086,7 +1097,8 @@ static phks_status solve(engine *eng, const filter *f, size_t k,
                     if (st == PHKS_OK)
                         st = ritz_vectors(&L, m, 1, q);
                     if (st == PHKS_OK)
-                        st = rayleigh_ritz(&L, eng, m, q, k, values, vectors, &worst);
+                        st = rayleigh_ritz(&L, eng, m, q, k, values, vectors,
+                                           &worst, next);
                 }
                 if (st != PHKS_OK)
                     break;
@@ -1137,7 +1149,7 @@ static phks_status solve(engine *eng, const filter *f, size_t k,
  * values and vectors in the pair matrix's numbering. */
 static phks_status solve_all(engine *eng, size_t k, size_t guard,
                              size_t cap, double norm, const phks_options *opt,
-                             double *values, double *vectors)
+                             double *values, double *vectors, double *next)
 {
     size_t b = BLOCK;
     double lmax = 0, cut = 0;
@@ -1154,7 +1166,7 @@ static phks_status solve_all(engine *eng, size_t k, size_t guard,
         size_t fcap = 3 * (k + guard) + 8 * b;
         fcap = fcap < cap ? fcap : cap;
         st = solve(eng, &f, k, guard, fcap, norm, opt, 0.02, 0.9, values,
-                   vectors, &cut_low);
+                   vectors, next, &cut_low);
         if (st != PHKS_ERROR_NO_CONVERGENCE || !cut_low)
             break;
         cut = cut + 2 * (values[k - 1] - cut) + 0.05 * (lmax - cut);
@@ -1164,12 +1176,12 @@ static phks_status solve_all(engine *eng, size_t k, size_t guard,
     /* plain Lanczos on B */
     filter plain = {1, 0, 1};
     return solve(eng, &plain, k, guard, cap, norm, opt, 0.02, 1, values,
-                 vectors, &cut_low);
+                 vectors, next, &cut_low);
 }
 
 phks_status phks_eigen_lanczos(const phks_operator_matrix *op, size_t k,
                                const phks_options *opt, double *values,
-                               double *vectors)
+                               double *vectors, double *next)
 {
     size_t n = op->n, b = BLOCK;
     /* Plain Lanczos may need a basis of up to about 12 k; Lanczos on the
@@ -1182,13 +1194,17 @@ phks_status phks_eigen_lanczos(const phks_operator_matrix *op, size_t k,
         cap = usable - b;
     if (n < 8 * b || cap < k + guard + 4 * b ||
         (PROBE_STEPS + 1) * b > usable)
-        return phks_eigen_dense(op, k, opt, values, vectors);
+        return phks_eigen_dense(op, k, opt, values, vectors, next);
     phks_operator_pairs pm;
     phks_status st = phks_operator_pairs_build(op, phks_thread_count(opt), &pm);
     if (st != PHKS_OK)
         return st;
     engine eng = {&pm, phks_cpu_avx2(), opt, 0};
-    st = solve_all(&eng, k, guard, cap, op->norm_bound, opt, values, vectors);
+    double upper = INFINITY;
+    st = solve_all(&eng, k, guard, cap, op->norm_bound, opt, values, vectors,
+                   &upper);
+    if (next)
+        *next = upper;
     if (st == PHKS_OK) {
         /* back to the operator's numbering */
         double *column = phks_malloc_array(n, sizeof *column);
@@ -1205,7 +1221,7 @@ phks_status phks_eigen_lanczos(const phks_operator_matrix *op, size_t k,
     phks_operator_pairs_release(&pm);
     /* Not expected on meshes; the dense solver is exact where it fits. */
     if (st == PHKS_ERROR_NO_CONVERGENCE && n <= DENSE_FALLBACK_MAX_N)
-        return phks_eigen_dense(op, k, opt, values, vectors);
+        return phks_eigen_dense(op, k, opt, values, vectors, next);
     if (st == PHKS_ERROR_NO_CONVERGENCE)
         return phks_fail(PHKS_ERROR_NO_CONVERGENCE,
                          "Lanczos: no convergence with a basis of %zu vectors",

@@ -282,16 +282,36 @@ void phks_block_times_upper(double *w, size_t n, const double *u,
 
 /* ---- eigen-solvers (eigen_*.c): the k smallest eigenpairs of op's B.
  * values ascending (k), vectors column-major n x k, orthonormal in the
- * plain inner product. */
+ * plain inner product. *next (next may be NULL) receives an estimate of
+ * lambda_{k+1} that is not below it (INFINITY when k = n or unknown), which
+ * tells whether the k-th value ends a cluster (spectrum.c). */
 phks_status phks_eigen_lanczos(const phks_operator_matrix *op, size_t k,
                                const phks_options *opt, double *values,
-                               double *vectors);
+                               double *vectors, double *next);
 phks_status phks_eigen_arpack(const phks_operator_matrix *op, size_t k,
                               const phks_options *opt, double *values,
-                              double *vectors);
+                              double *vectors, double *next);
 phks_status phks_eigen_dense(const phks_operator_matrix *op, size_t k,
                              const phks_options *opt, double *values,
-                             double *vectors);
+                             double *vectors, double *next);
+
+/* ---- B's null space (spectrum.c) */
+/* The connected components of the graph of op's non-zero off-diagonal
+ * entries (the kernel's, which may split a connected mesh): *component
+ * (a library allocation, n entries) numbers them 0.. in order of lowest
+ * point, *count is their number. S is a graph Laplacian with positive
+ * weights on those entries, so B's null space is exactly spanned by
+ * Mh^1/2 times the indicator of each component. */
+phks_status phks_operator_components(const phks_operator_matrix *op,
+                                     uint32_t **component, size_t *count);
+/* root[i] = sqrt(Mh_i) and scale[c] = 1 / sqrt(Mh of component c): the
+ * unit null vector of component c is root[i] scale[c] on its points. */
+phks_status phks_null_space(const phks_operator_matrix *op,
+                            const uint32_t *component, size_t count,
+                            double *root, double *scale);
+/* Eigenvalues within this fraction of max(|lambda|, 1 / tau) of each
+ * other are equal: a spectrum keeps whole clusters of them (phks.h). */
+#define PHKS_CLUSTER_TOL 1e-6
 
 /* ---- spectrum (spectrum.c, hks.c; HKS-simp in simp.h) */
 struct phks_spectrum {

@@ -24,22 +24,149 @@ void phks_spectrum_free(phks_spectrum *spec)
     phks_free(spec);
 }
 
-static phks_status solve(const phks_operator_matrix *op, size_t k,
-                         const phks_options *opt, double *values,
-                         double *vectors)
+static phks_status run_solver(const phks_operator_matrix *op, size_t k,
+                              const phks_options *opt, double *values,
+                              double *vectors, double *next)
 {
     switch (opt->solver) {
     case PHKS_SOLVER_ARPACK:
-        return phks_eigen_arpack(op, k, opt, values, vectors);
+        return phks_eigen_arpack(op, k, opt, values, vectors, next);
     case PHKS_SOLVER_DENSE:
-        return phks_eigen_dense(op, k, opt, values, vectors);
+        return phks_eigen_dense(op, k, opt, values, vectors, next);
     case PHKS_SOLVER_LANCZOS:
-        return phks_eigen_lanczos(op, k, opt, values, vectors);
+        return phks_eigen_lanczos(op, k, opt, values, vectors, next);
     default:
         if (op->n < AUTO_DENSE_BELOW)
-            return phks_eigen_dense(op, k, opt, values, vectors);
-        return phks_eigen_lanczos(op, k, opt, values, vectors);
+            return phks_eigen_dense(op, k, opt, values, vectors, next);
+        return phks_eigen_lanczos(op, k, opt, values, vectors, next);
     }
+}
+
+static uint32_t find_root(uint32_t *parent, uint32_t i)
+{
+    while (parent[i] != i) {
+        parent[i] = parent[parent[i]]; /* path halving */
+        i = parent[i];
+    }
+    return i;
+}
+
+phks_status phks_operator_components(const phks_operator_matrix *op,
+                                     uint32_t **component, size_t *count)
+{
+    size_t n = op->n;
+    uint32_t *parent = phks_malloc_array(n, sizeof *parent);
+    *component = parent;
+    *count = 0;
+    if (!parent)
+        return phks_fail_oom("operator components");
+    for (size_t i = 0; i < n; i++)
+        parent[i] = (uint32_t)i;
+    /* union by lower root, so every root is its component's lowest point */
+    for (size_t r = 0; r < n; r++)
+        for (size_t e = op->row_start[r]; e < op->row_start[r + 1]; e++) {
+            if (op->col[e] <= r || op->val[e] == 0)
+                continue;
+            uint32_t a = find_root(parent, (uint32_t)r);
+            uint32_t b = find_root(parent, op->col[e]);
+            if (a != b)
+                parent[a > b ? a : b] = a < b ? a : b;
+        }
+    /* roots precede their points: number them in one ascending pass */
+    size_t c = 0;
+    for (size_t i = 0; i < n; i++) {
+        uint32_t root = find_root(parent, (uint32_t)i);
+        parent[i] = root == i ? (uint32_t)c++ : parent[root];
+    }
+    *count = c;
+    return PHKS_OK;
+}
+
+phks_status phks_null_space(const phks_operator_matrix *op,
+                            const uint32_t *component, size_t count,
+                            double *root, double *scale)
+{
+    for (size_t c = 0; c < count; c++)
+        scale[c] = 0;
+    for (size_t i = 0; i < op->n; i++) {
+        root[i] = sqrt(op->mass[i]);
+        scale[component[i]] += op->mass[i];
+    }
+    for (size_t c = 0; c < count; c++) {
+        if (!(scale[c] > 0))
+            return phks_fail(PHKS_ERROR_SOLVER,
+                             "operator component %zu has no mass", c);
+        scale[c] = 1 / sqrt(scale[c]);
+    }
+    return PHKS_OK;
+}
+
+static bool cluster_equal(double a, double b, const phks_options *opt)
+{
+    return fabs(b - a) <= PHKS_CLUSTER_TOL * fmax(fabs(b), 1 / opt->tau);
+}
+
+/* The smallest eigenpairs of op's B into spec->values and spec->vectors
+ * (op->n rows), spec->count of them: k, less the pairs of a cluster of
+ * equal eigenvalues (PHKS_CLUSTER_TOL) that the k-th value would split.
+ * Within such a cluster a solver returns any orthonormal basis, and HKS
+ * sums phi_i(x)^2 over the pairs kept, which is the same for every basis
+ * of a whole cluster only; on an exactly symmetric mesh the cut at k
+ * would otherwise make HKS depend on the solver and on the mesh's
+ * orientation. The zero eigenvalue's cluster (one per component of the
+ * kernel's graph) is known exactly and kept whole even beyond k, taken
+ * from the components where it fills the request: Krylov solvers find a
+ * cluster many times wider than their block only slowly, if at all. */
+static phks_status solve(const phks_operator_matrix *op, size_t k,
+                         const phks_options *opt, phks_spectrum *spec)
+{
+    size_t n = op->n, zeros = 0;
+    uint32_t *component = NULL;
+    double *root = NULL, *scale = NULL;
+    phks_status st = phks_operator_components(op, &component, &zeros);
+    size_t room = st == PHKS_OK && zeros >= k ? zeros : k;
+    if (st == PHKS_OK) {
+        spec->values = phks_malloc_array(room, sizeof(double));
+        spec->vectors = phks_malloc_array(n, room * sizeof(double));
+        if (!spec->values || !spec->vectors)
+            st = phks_fail_oom("spectrum");
+    }
+    if (st == PHKS_OK && zeros >= k) {
+        root = phks_malloc_array(n, sizeof *root);
+        scale = phks_malloc_array(zeros, sizeof *scale);
+        st = root && scale ? phks_null_space(op, component, zeros, root, scale)
+                           : phks_fail_oom("spectrum");
+        if (st == PHKS_OK) {
+            memset(spec->vectors, 0, n * zeros * sizeof(double));
+            for (size_t i = 0; i < n; i++)
+                spec->vectors[component[i] * n + i] = root[i] * scale[component[i]];
+            for (size_t c = 0; c < zeros; c++)
+                spec->values[c] = 0;
+            spec->count = zeros;
+        }
+    } else if (st == PHKS_OK) {
+        double next = INFINITY;
+        st = run_solver(op, k, opt, spec->values, spec->vectors, &next);
+        size_t count = k;
+        if (st == PHKS_OK && k < n &&
+            cluster_equal(spec->values[k - 1], next, opt)) {
+            count = k - 1;
+            while (count > zeros &&
+                   cluster_equal(spec->values[count - 1], spec->values[count], opt))
+                count--;
+            /* the cut would run into the zero cluster, whose tail is
+             * then not zero but within the tolerance of it (components
+             * joined by a thread of tiny weights): keep all k */
+            if (count == zeros &&
+                cluster_equal(spec->values[count - 1], spec->values[count], opt))
+                count = k;
+        }
+        spec->count = count;
+    }
+    phks_free(component);
+    phks_free(root);
+    phks_free(scale);
+    return st;
 }
 
 /* Mh^-1/2 scaling, and a sign convention so that results do not depend on
@@ -122,12 +249,9 @@ static phks_status compute_simplified(const phks_mesh *mesh,
                                        samples.gain, opt, 0.85, 0.15, &op);
     }
     if (st == PHKS_OK) {
-        spec->count = opt->eigen_count < m ? opt->eigen_count : m;
-        spec->values = phks_malloc_array(spec->count, sizeof(double));
-        spec->vectors = phks_malloc_array(m, spec->count * sizeof(double));
         spec->mass = phks_malloc_array(n, sizeof(double));
         sample_mass = phks_malloc_array(m, sizeof *sample_mass);
-        if (!spec->values || !spec->vectors || !spec->mass || !sample_mass)
+        if (!spec->mass || !sample_mass)
             st = phks_fail_oom("spectrum");
     }
     if (st == PHKS_OK) {
@@ -138,7 +262,8 @@ static phks_status compute_simplified(const phks_mesh *mesh,
             uint32_t s = samples.of_vertex[v];
             spec->mass[v] = area[v] * (sample_mass[s] / samples.area[s]);
         }
-        st = solve(&op, spec->count, opt, spec->values, spec->vectors);
+        st = solve(&op, opt->eigen_count < m ? opt->eigen_count : m, opt,
+                   spec);
     }
     phks_operator_release(&op);
     phks_free(area);
@@ -163,15 +288,12 @@ static phks_status compute_exact(const phks_mesh *mesh, const phks_options *opt,
     if (st != PHKS_OK)
         return st;
     size_t n = spec->n;
-    spec->count = opt->eigen_count < n ? opt->eigen_count : n;
-    spec->values = phks_malloc_array(spec->count, sizeof(double));
-    spec->vectors = phks_malloc_array(n, spec->count * sizeof(double));
     spec->mass = phks_malloc_array(n, sizeof(double));
-    if (!spec->values || !spec->vectors || !spec->mass)
+    if (!spec->mass)
         st = phks_fail_oom("spectrum");
     if (st == PHKS_OK) {
         memcpy(spec->mass, op.mass, n * sizeof(double));
-        st = solve(&op, spec->count, opt, spec->values, spec->vectors);
+        st = solve(&op, opt->eigen_count < n ? opt->eigen_count : n, opt, spec);
     }
     phks_operator_release(&op);
     if (st == PHKS_OK)
