@@ -72,12 +72,13 @@ phks_status phks_operator_components(const phks_operator_matrix *op,
             if (a != b)
                 parent[a > b ? a : b] = a < b ? a : b;
         }
-    /* roots precede their points: number them in one ascending pass */
+    for (size_t i = 0; i < n; i++)
+        parent[i] = find_root(parent, (uint32_t)i);
+    /* every root is its component's lowest point: in one ascending pass
+     * it is numbered before the points that refer to it */
     size_t c = 0;
-    for (size_t i = 0; i < n; i++) {
-        uint32_t root = find_root(parent, (uint32_t)i);
-        parent[i] = root == i ? (uint32_t)c++ : parent[root];
-    }
+    for (size_t i = 0; i < n; i++)
+        parent[i] = parent[i] == i ? (uint32_t)c++ : parent[parent[i]];
     *count = c;
     return PHKS_OK;
 }
