@@ -31,7 +31,8 @@
  *     restarts with a higher one (at most three times); if the basis would
  *     grow past its cap (3 (k + guard) + 8 BLOCK), the solve falls back to
  *     plain Lanczos on B (degree 1, basis up to 12 k + 8 BLOCK), and when
- *     that does not converge either, to the dense solver if n <= 16384.
+ *     that does not converge either, to the dense solver if n <= 16384,
+ *     to ARPACK above.
  *  Meshes too small for a Krylov basis (n < 8 BLOCK, or fewer than
  *  k + guard + 4 BLOCK usable columns, or no room for the probe) go to the
  *  dense solver directly.
@@ -1219,12 +1220,15 @@ phks_status phks_eigen_lanczos(const phks_operator_matrix *op, size_t k,
         phks_free(column);
     }
     phks_operator_pairs_release(&pm);
-    /* Not expected on meshes; the dense solver is exact where it fits. */
+    /* Not expected on connected meshes; the dense solver is exact where
+     * it fits. Where it does not, ARPACK: much slower, but it deflates the
+     * null space exactly and checks for missed copies of a multiple
+     * eigenvalue, which is what stops this solver where the kernel splits
+     * a mesh into many more components than its block (hundreds of
+     * separate triangles: that many zero eigenvalues). */
     if (st == PHKS_ERROR_NO_CONVERGENCE && n <= DENSE_FALLBACK_MAX_N)
         return phks_eigen_dense(op, k, opt, values, vectors, next);
     if (st == PHKS_ERROR_NO_CONVERGENCE)
-        return phks_fail(PHKS_ERROR_NO_CONVERGENCE,
-                         "Lanczos: no convergence with a basis of %zu vectors",
-                         cap);
+        return phks_eigen_arpack(op, k, opt, values, vectors, next);
     return st;
 }

@@ -107,6 +107,37 @@ static bool cluster_equal(double a, double b, const phks_options *opt)
     return fabs(b - a) <= PHKS_CLUSTER_TOL * fmax(fabs(b), 1 / opt->tau);
 }
 
+/* The zero eigenvalue's whole cluster, from op's components (zeros of
+ * them), into spec. */
+static phks_status null_pairs(const phks_operator_matrix *op,
+                              const uint32_t *component, size_t zeros,
+                              phks_spectrum *spec)
+{
+    size_t n = op->n;
+    double *root = phks_malloc_array(n, sizeof *root);
+    double *scale = phks_malloc_array(zeros, sizeof *scale);
+    double *values = phks_realloc_array(spec->values, zeros, sizeof(double));
+    if (values)
+        spec->values = values;
+    double *vectors = phks_realloc_array(spec->vectors, n, zeros * sizeof(double));
+    if (vectors)
+        spec->vectors = vectors;
+    phks_status st = root && scale && values && vectors
+                         ? phks_null_space(op, component, zeros, root, scale)
+                         : phks_fail_oom("spectrum");
+    if (st == PHKS_OK) {
+        memset(vectors, 0, n * zeros * sizeof(double));
+        for (size_t i = 0; i < n; i++)
+            vectors[component[i] * n + i] = root[i] * scale[component[i]];
+        for (size_t c = 0; c < zeros; c++)
+            values[c] = 0;
+        spec->count = zeros;
+    }
+    phks_free(root);
+    phks_free(scale);
+    return st;
+}
+
 /* The smallest eigenpairs of op's B into spec->values and spec->vectors
  * (op->n rows), spec->count of them: k, less the pairs of a cluster of
  * equal eigenvalues (PHKS_CLUSTER_TOL) that the k-th value would split.
@@ -115,59 +146,58 @@ static bool cluster_equal(double a, double b, const phks_options *opt)
  * of a whole cluster only; on an exactly symmetric mesh the cut at k
  * would otherwise make HKS depend on the solver and on the mesh's
  * orientation. The zero eigenvalue's cluster (one per component of the
- * kernel's graph) is known exactly and kept whole even beyond k, taken
- * from the components where it fills the request: Krylov solvers find a
- * cluster many times wider than their block only slowly, if at all. */
+ * kernel's graph) is known exactly and kept whole even beyond k.
+ * Finding the components reads every entry of op (a tenth of a second at
+ * 15k vertices), so it is done only where the zero cluster may reach k:
+ * beforehand where the mesh has at least k components (`pieces`; Krylov
+ * solvers find a cluster many times wider than their block only slowly,
+ * if at all), afterwards where the solver's k-th value and its next are
+ * both zero. */
 static phks_status solve(const phks_operator_matrix *op, size_t k,
-                         const phks_options *opt, phks_spectrum *spec)
+                         size_t pieces, const phks_options *opt,
+                         phks_spectrum *spec)
 {
     size_t n = op->n, zeros = 0;
     uint32_t *component = NULL;
-    double *root = NULL, *scale = NULL;
-    phks_status st = phks_operator_components(op, &component, &zeros);
-    size_t room = st == PHKS_OK && zeros >= k ? zeros : k;
-    if (st == PHKS_OK) {
-        spec->values = phks_malloc_array(room, sizeof(double));
-        spec->vectors = phks_malloc_array(n, room * sizeof(double));
-        if (!spec->values || !spec->vectors)
-            st = phks_fail_oom("spectrum");
-    }
-    if (st == PHKS_OK && zeros >= k) {
-        root = phks_malloc_array(n, sizeof *root);
-        scale = phks_malloc_array(zeros, sizeof *scale);
-        st = root && scale ? phks_null_space(op, component, zeros, root, scale)
-                           : phks_fail_oom("spectrum");
-        if (st == PHKS_OK) {
-            memset(spec->vectors, 0, n * zeros * sizeof(double));
-            for (size_t i = 0; i < n; i++)
-                spec->vectors[component[i] * n + i] = root[i] * scale[component[i]];
-            for (size_t c = 0; c < zeros; c++)
-                spec->values[c] = 0;
-            spec->count = zeros;
+    phks_status st = PHKS_OK;
+    if (pieces >= k) {
+        st = phks_operator_components(op, &component, &zeros);
+        if (st == PHKS_OK && zeros >= k)
+            st = null_pairs(op, component, zeros, spec);
+        if (st != PHKS_OK || zeros >= k) {
+            phks_free(component);
+            return st;
         }
-    } else if (st == PHKS_OK) {
-        double next = INFINITY;
-        st = run_solver(op, k, opt, spec->values, spec->vectors, &next);
-        size_t count = k;
-        if (st == PHKS_OK && k < n &&
-            cluster_equal(spec->values[k - 1], next, opt)) {
-            count = k - 1;
-            while (count > zeros &&
-                   cluster_equal(spec->values[count - 1], spec->values[count], opt))
-                count--;
-            /* the cut would run into the zero cluster, whose tail is
-             * then not zero but within the tolerance of it (components
-             * joined by a thread of tiny weights): keep all k */
-            if (count == zeros &&
-                cluster_equal(spec->values[count - 1], spec->values[count], opt))
-                count = k;
-        }
-        spec->count = count;
     }
     phks_free(component);
-    phks_free(root);
-    phks_free(scale);
-    return st;
+    component = NULL;
+    spec->values = phks_malloc_array(k, sizeof(double));
+    spec->vectors = phks_malloc_array(n, k * sizeof(double));
+    if (!spec->values || !spec->vectors)
+        return phks_fail_oom("spectrum");
+    double next = INFINITY;
+    st = run_solver(op, k, opt, spec->values, spec->vectors, &next);
+    spec->count = k;
+    if (st != PHKS_OK || k == n || !cluster_equal(spec->values[k - 1], next, opt))
+        return st;
+    if (cluster_equal(0, spec->values[k - 1], opt)) {
+        /* the zero cluster reaches past k */
+        st = phks_operator_components(op, &component, &zeros);
+        if (st == PHKS_OK && zeros >= k)
+            st = null_pairs(op, component, zeros, spec);
+        /* else eigenvalues within the tolerance of zero but not zero
+         * (components joined by a thread of tiny weights): all k kept */
+        phks_free(component);
+        return st;
+    }
+    size_t count = k - 1;
+    while (count > 0 &&
+           cluster_equal(spec->values[count - 1], spec->values[count], opt))
+        count--;
+    /* a chain of equal values down into the zero cluster: as above */
+    if (count > 0 && !cluster_equal(0, spec->values[count], opt))
+        spec->count = count;
+    return PHKS_OK;
 }
 
 /* Mh^-1/2 scaling, and a sign convention so that results do not depend on
@@ -263,8 +293,8 @@ static phks_status compute_simplified(const phks_mesh *mesh,
             uint32_t s = samples.of_vertex[v];
             spec->mass[v] = area[v] * (sample_mass[s] / samples.area[s]);
         }
-        st = solve(&op, opt->eigen_count < m ? opt->eigen_count : m, opt,
-                   spec);
+        st = solve(&op, opt->eigen_count < m ? opt->eigen_count : m,
+                   mesh->component_count, opt, spec);
     }
     phks_operator_release(&op);
     phks_free(area);
@@ -294,7 +324,8 @@ static phks_status compute_exact(const phks_mesh *mesh, const phks_options *opt,
         st = phks_fail_oom("spectrum");
     if (st == PHKS_OK) {
         memcpy(spec->mass, op.mass, n * sizeof(double));
-        st = solve(&op, opt->eigen_count < n ? opt->eigen_count : n, opt, spec);
+        st = solve(&op, opt->eigen_count < n ? opt->eigen_count : n,
+                   mesh->component_count, opt, spec);
     }
     phks_operator_release(&op);
     if (st == PHKS_OK)
