@@ -147,8 +147,9 @@ static phks_status null_pairs(const phks_operator_matrix *op,
  * would otherwise make HKS depend on the solver and on the mesh's
  * orientation. The zero eigenvalue's cluster (one per component of the
  * kernel's graph) is known exactly and kept whole even beyond k.
- * Finding the components reads every entry of op (a tenth of a second at
- * 15k vertices), so it is done only where the zero cluster may reach k:
+ * Finding the components reads every entry of op, a measurable part of
+ * a signature's time (docs/benchmarks.md), so it is done only where the
+ * zero cluster may reach k:
  * beforehand where the mesh has at least k components (`pieces`; Krylov
  * solvers find a cluster many times wider than their block only slowly,
  * if at all), afterwards where the solver's k-th value and its next are
