@@ -226,7 +226,8 @@ phks_status phks_eigen_arpack(const phks_operator_matrix *op, size_t k,
     size_t zeros = z.count < k ? z.count : k;
     size_t nev = k - zeros + 1;
     size_t ncv = 2 * nev + 1 > nev + 20 ? 2 * nev + 1 : nev + 20;
-    size_t room = n - z.count - nev; /* left for a check */
+    /* left for a check; none where the null space fills the request */
+    size_t room = z.count < k && z.count + nev < n ? n - z.count - nev : 0;
     size_t extra = room > CHECK_PAIRS + 1 ? CHECK_PAIRS : room > 1 ? room - 1 : 0;
     double *root = phks_malloc_array(n, sizeof *root);
     double *scale = phks_malloc_array(z.count, sizeof *scale);
@@ -250,7 +251,8 @@ phks_status phks_eigen_arpack(const phks_operator_matrix *op, size_t k,
         st = phks_fail_oom("ARPACK workspace");
     if (st == PHKS_OK)
         st = phks_null_space(op, component, z.count, root, scale);
-    if (st == PHKS_OK)
+    /* more zeros than asked for: the k-th and the next are both 0 */
+    if (st == PHKS_OK && z.count <= k)
         st = run(op, nev, ncv, MAX_RESTARTS, opt, &z, 0x5DEECE66Dull, fvals,
                  found);
     /* the checks for missed pairs */

@@ -663,6 +663,32 @@ START_TEST(test_hostile)
     }
     phks_mesh_free(mesh);
 
+    /* a lattice of 6^3 points 0.2 apart, joined into 6 mesh components
+     * by triangles longer than the kernel's cut-off: whatever the frame
+     * of the principal box, its side is at most sqrt(3), and 0.2 /
+     * sqrt(3) > 0.099, so every point is a component of its own and B is
+     * zero; 150 pairs asked, fewer than the 210 zeros (the corner (5, 5)
+     * of each layer is in no triangle and dropped) */
+    for (int k = 0; k < 6; k++)
+        for (int j = 0; j < 6; j++)
+            for (int i = 0; i < 6; i++)
+                soup_vertex(&s, i / 5.0, j / 5.0, k / 5.0);
+    for (uint32_t k = 0; k < 6; k++)
+        for (uint32_t j = 0; j < 5; j++)
+            for (uint32_t i = 0; i < 5; i++) {
+                uint32_t a = 36 * k + 6 * j + i;
+                soup_triangle(&s, a, a + 1, a + 6);
+            }
+    mesh = soup_mesh_take(&s);
+    REQUIRE(phks_mesh_component_count(mesh) == 6 &&
+            phks_mesh_vertex_count(mesh) == 210);
+    for (int op = 0; op < 2; op++) {
+        phks_spectrum *spec = check_solvers(mesh, op, 150, 210, "isolated points");
+        REQUIRE(phks_spectrum_count(spec) == 210);
+        phks_spectrum_free(spec);
+    }
+    phks_mesh_free(mesh);
+
     /* coincident duplicates: a cube grid whose every vertex is doubled,
      * the triangles alternating between the copies */
     add_cube(&s, 8);
