@@ -20,7 +20,6 @@
  * test_sphere), and its signatures from each solver and from a rotated
  * copy must score within 1e-6 of each other.
  */
-#include "shapes.h"
 #include "soup.h"
 
 #include <math.h>
