@@ -227,7 +227,14 @@ typedef int (*phks_progress_fn)(void *user, phks_stage stage, double fraction);
 
 typedef struct phks_options {
     uint32_t version;        /* PHKS_OPTIONS_VERSION; set by init        */
-    uint32_t eigen_count;    /* eigenpairs computed: 300                 */
+    uint32_t eigen_count;    /* eigenpairs computed: 300. Whole clusters
+                                of equal eigenvalues only: eigenvalues
+                                within 1e-6 max(|lambda|, 1 / tau) of
+                                their neighbour are equal, and a cluster
+                                the count would split is left out (the
+                                zero eigenvalue's is kept whole, even
+                                past the count); see
+                                phks_spectrum_compute                    */
     double tau;              /* time unit = kernel parameter h: 0.0002,
                                 for a mesh scaled to a unit box          */
     double cutoff;           /* kernel cut-off radius in units of
@@ -405,8 +412,22 @@ PHKS_API double phks_mesh_area(const phks_mesh *mesh);
  */
 typedef struct phks_spectrum phks_spectrum;
 
-/* Computes min(options->eigen_count, vertex_count) eigenpairs. options may
- * be NULL (defaults). Errors: PHKS_ERROR_INVALID_ARGUMENT (NULL mesh or
+/* Computes min(options->eigen_count, vertex_count) eigenpairs, or fewer
+ * where that count would split a cluster of equal eigenvalues: the last
+ * eigenvalue kept is then followed by one that is not equal to it.
+ * Eigenvalues are equal when they differ by at most 1e-6 max(|lambda|,
+ * 1 / tau) (on PSB meshes the 300th and 301st differ by hundreds of
+ * times that, so the count is kept). Within a cluster every solver
+ * returns some orthonormal basis, and HKS sums phi_i(x)^2 over the pairs
+ * kept, which does not depend on the basis for whole clusters only: an
+ * exactly symmetric mesh (a geodesic sphere has 2l + 1 equal values per
+ * degree l, the 17th straddling pair 300) would otherwise get HKS that
+ * depends on the solver and on the mesh's orientation. The zero
+ * eigenvalue's cluster, one per component of the kernel's graph, is known
+ * exactly (the constants on each component) and is kept whole even where
+ * it holds more than eigen_count pairs (a thousand separate triangles: a
+ * thousand pairs). phks_spectrum_count tells how many there are. options
+ * may be NULL (defaults). Errors: PHKS_ERROR_INVALID_ARGUMENT (NULL mesh or
  * out, options not from phks_options_init or out of range),
  * PHKS_ERROR_OUT_OF_MEMORY, PHKS_ERROR_CANCELLED, PHKS_ERROR_NO_CONVERGENCE,
  * PHKS_ERROR_SOLVER. Thread-safe (ARPACK calls are serialised inside). */

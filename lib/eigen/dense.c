@@ -6,6 +6,7 @@
 #include "eigen/eigen.h"
 
 #include <lapacke.h>
+#include <math.h>
 #include <string.h>
 
 /* 16k x 16k doubles is 2 GiB; beyond that the iterative solvers win by
@@ -14,18 +15,22 @@
 
 phks_status phks__eigen_dense(const phks__operator_matrix *op, size_t k,
                              const phks_options *opt, double *values,
-                             double *vectors)
+                             double *vectors, double *next)
 {
     size_t n = op->n;
     if (n > DENSE_MAX_N)
         return phks__fail(PHKS_ERROR_TOO_LARGE,
                          "dense eigen-solver: %zu vertices, more than %d", n,
                          DENSE_MAX_N);
+    /* one pair more than asked where there is one, for *next: dsyevr's
+     * vectors and values for 1..k do not depend on how many follow */
+    size_t want = next && k < n ? k + 1 : k;
     double *a = phks__calloc(n * n, sizeof *a);
     double *w = phks__malloc_array(n, sizeof *w);
-    lapack_int *support = phks__malloc_array(2 * k, sizeof *support);
+    double *z = want > k ? phks__malloc_array(n, want * sizeof *z) : vectors;
+    lapack_int *support = phks__malloc_array(2 * want, sizeof *support);
     phks_status st = PHKS_OK;
-    if (!a || !w || !support) {
+    if (!a || !w || !z || !support) {
         st = phks__fail_oom("dense eigen-solver");
         goto done;
     }
@@ -38,18 +43,24 @@ phks_status phks__eigen_dense(const phks__operator_matrix *op, size_t k,
     lapack_int found = 0;
     lapack_int info = LAPACKE_dsyevr(LAPACK_COL_MAJOR, 'V', 'I', 'L',
                                      (lapack_int)n, a, (lapack_int)n, 0, 0, 1,
-                                     (lapack_int)k, 0, &found, w, vectors,
+                                     (lapack_int)want, 0, &found, w, z,
                                      (lapack_int)n, support);
-    if (info != 0 || (size_t)found != k) {
+    if (info != 0 || (size_t)found != want) {
         st = phks__fail(PHKS_ERROR_SOLVER, "dense eigen-solver: dsyevr info %d",
                        (int)info);
         goto done;
     }
     memcpy(values, w, k * sizeof *values);
+    if (z != vectors)
+        memcpy(vectors, z, n * k * sizeof *z);
+    if (next)
+        *next = want > k ? w[k] : INFINITY;
     st = phks__progress(opt, PHKS_STAGE_EIGEN, 1);
 done:
     phks__free(a);
     phks__free(w);
+    if (z != vectors)
+        phks__free(z);
     phks__free(support);
     return st;
 }

@@ -31,7 +31,8 @@
  *     restarts with a higher one (at most three times); if the basis would
  *     grow past its cap (3 (k + guard) + 8 BLOCK), the solve falls back to
  *     plain Lanczos on B (degree 1, basis up to 12 k + 8 BLOCK), and when
- *     that does not converge either, to the dense solver if n <= 16384.
+ *     that does not converge either, to the dense solver if n <= 16384,
+ *     to ARPACK above.
  *  Meshes too small for a Krylov basis (n < 8 BLOCK, or fewer than
  *  k + guard + 4 BLOCK usable columns, or no room for the probe) go to the
  *  dense solver directly.
@@ -562,6 +563,45 @@ static phks_status reduce_t(lanczos *L, size_t m)
     return PHKS_OK;
 }
 
+/* Every eigenvalue of the tridiagonal form (ascending, into theta), with
+ * its eigenvectors into ritz when `vectors`: what pairs_t does when MRRR
+ * gives up. MRRR fails (dstemr info 2x) where T has clusters of equal
+ * eigenvalues tighter than its representation tree can split, which is what
+ * an exactly symmetric mesh gives (2l + 1 equal values per degree on a
+ * geodesic sphere). Divide and conquer (dstedc) deflates such clusters
+ * instead of separating them, and its vectors are orthogonal to working
+ * precision whatever the clustering; implicit QL/QR (dsteqr) backs it up.
+ * Both cost a few times MRRR, and run only after it failed, so ordinary
+ * meshes keep MRRR's results bit for bit. */
+static phks_status pairs_t_fallback(lanczos *L, size_t m, bool vectors,
+                                    lapack_int mrrr_info)
+{
+    lapack_int info = 0;
+    for (int method = 0; method < 2; method++) {
+        memcpy(L->diag_work, L->diag, m * sizeof(double));
+        memcpy(L->off_work, L->off, m * sizeof(double));
+        if (!vectors)
+            info = LAPACKE_dsterf((lapack_int)m, L->diag_work, L->off_work);
+        else if (method == 0)
+            info = LAPACKE_dstedc(LAPACK_COL_MAJOR, 'I', (lapack_int)m,
+                                  L->diag_work, L->off_work, L->ritz,
+                                  (lapack_int)m);
+        else
+            info = LAPACKE_dsteqr(LAPACK_COL_MAJOR, 'I', (lapack_int)m,
+                                  L->diag_work, L->off_work, L->ritz,
+                                  (lapack_int)m);
+        if (info == 0) {
+            memcpy(L->theta, L->diag_work, m * sizeof(double));
+            return PHKS_OK;
+        }
+        if (!vectors)
+            break;
+    }
+    return phks__fail(PHKS_ERROR_SOLVER,
+                     "Lanczos: dstemr info %d, and %s info %d after it",
+                     (int)mrrr_info, vectors ? "dsteqr" : "dsterf", (int)info);
+}
+
 /* Eigenpairs il..iu (1-based, ascending) of T from reduce_t's tridiagonal
  * form: the values into theta, the last b rows of the eigenvectors into
  * bottom (b x count, for the residuals), and the eigenvectors of the
@@ -586,8 +626,12 @@ static phks_status pairs_t(lanczos *L, size_t m, size_t il, size_t iu,
         L->diag_work, L->off_work, 0, 0, (lapack_int)il, (lapack_int)iu, &found,
         L->theta, L->ritz, (lapack_int)m, (lapack_int)(all ? m : count),
         L->support, &tryrac);
-    if (info != 0 || (size_t)found != (all ? m : count))
-        return phks__fail(PHKS_ERROR_SOLVER, "Lanczos: dstemr info %d", (int)info);
+    if (info != 0 || (size_t)found != (all ? m : count)) {
+        phks_status st = pairs_t_fallback(L, m, vectors, info);
+        if (st != PHKS_OK)
+            return st;
+        all = true;
+    }
     if (all) {
         memmove(L->theta, L->theta + (il - 1), count * sizeof(double));
         memmove(L->ritz, L->ritz + (il - 1) * m, count * m * sizeof(double));
@@ -856,10 +900,11 @@ done:
 
 /* Rayleigh-Ritz with B on the q Ritz vectors Y = V S of the top of T.
  * values/vectors receive the k lowest pairs; *worst the largest residual
- * norm among them. */
+ * norm among them; *next the (k+1)-th value, an upper bound on
+ * lambda_{k+1} (q > k). */
 static phks_status rayleigh_ritz(lanczos *L, const engine *eng, size_t m,
                                  size_t q, size_t k, double *values,
-                                 double *vectors, double *worst)
+                                 double *vectors, double *worst, double *next)
 {
     size_t n = L->n, b = L->b;
     size_t qb = (q + b - 1) / b * b; /* padded to whole blocks */
@@ -923,6 +968,7 @@ static phks_status rayleigh_ritz(lanczos *L, const engine *eng, size_t m,
         values[e] = gv[e];
     }
     *worst = w;
+    *next = gv[k];
 done:
     phks__free(y);
     phks__free(by);
@@ -990,7 +1036,7 @@ static phks_status solve(engine *eng, const filter *f, size_t k,
                          size_t guard, size_t cap, double norm,
                          const phks_options *opt,
                          double lo, double hi, double *values, double *vectors,
-                         bool *cut_low)
+                         double *next, bool *cut_low)
 {
     size_t n = eng->pm->n, b = BLOCK, q = k + guard;
     double tol = opt->tolerance * norm;
@@ -1035,6 +1081,15 @@ static phks_status solve(engine *eng, const filter *f, size_t k,
                 st = ritz_vectors(&L, m, 1 + q - k, k);
                 if (st != PHKS_OK)
                     break;
+                /* lambda_{k+1}'s estimate before ritz_vectors and
+                 * Rayleigh-Ritz reuse theta: the (k+1)-th largest Ritz
+                 * value of p(B) is at most p(lambda_{k+1}), so its
+                 * preimage is at least lambda_{k+1}; below 1 it lies
+                 * beyond the cut */
+                double theta_next = L.theta[q - k];
+                *next = f->degree > 1 && !(theta_next > 1)
+                            ? f->c - f->e
+                            : filter_inverse(f, theta_next);
                 st = ritz_pairs(&L, eng, f, m, q, k, values, vectors, &worst);
                 if (st == PHKS_OK &&
                     (worst > tol || (f->degree > 1 && values[k - 1] >= f->c - f->e))) {
@@ -1042,7 +1097,8 @@ static phks_status solve(engine *eng, const filter *f, size_t k,
                     if (st == PHKS_OK)
                         st = ritz_vectors(&L, m, 1, q);
                     if (st == PHKS_OK)
-                        st = rayleigh_ritz(&L, eng, m, q, k, values, vectors, &worst);
+                        st = rayleigh_ritz(&L, eng, m, q, k, values, vectors,
+                                           &worst, next);
                 }
                 if (st != PHKS_OK)
                     break;
@@ -1093,7 +1149,7 @@ static phks_status solve(engine *eng, const filter *f, size_t k,
  * values and vectors in the pair matrix's numbering. */
 static phks_status solve_all(engine *eng, size_t k, size_t guard,
                              size_t cap, double norm, const phks_options *opt,
-                             double *values, double *vectors)
+                             double *values, double *vectors, double *next)
 {
     size_t b = BLOCK;
     double lmax = 0, cut = 0;
@@ -1110,7 +1166,7 @@ static phks_status solve_all(engine *eng, size_t k, size_t guard,
         size_t fcap = 3 * (k + guard) + 8 * b;
         fcap = fcap < cap ? fcap : cap;
         st = solve(eng, &f, k, guard, fcap, norm, opt, 0.02, 0.9, values,
-                   vectors, &cut_low);
+                   vectors, next, &cut_low);
         if (st != PHKS_ERROR_NO_CONVERGENCE || !cut_low)
             break;
         cut = cut + 2 * (values[k - 1] - cut) + 0.05 * (lmax - cut);
@@ -1120,12 +1176,12 @@ static phks_status solve_all(engine *eng, size_t k, size_t guard,
     /* plain Lanczos on B */
     filter plain = {1, 0, 1};
     return solve(eng, &plain, k, guard, cap, norm, opt, 0.02, 1, values,
-                 vectors, &cut_low);
+                 vectors, next, &cut_low);
 }
 
 phks_status phks__eigen_lanczos(const phks__operator_matrix *op, size_t k,
                                const phks_options *opt, double *values,
-                               double *vectors)
+                               double *vectors, double *next)
 {
     size_t n = op->n, b = BLOCK;
     /* Plain Lanczos may need a basis of up to about 12 k; Lanczos on the
@@ -1138,13 +1194,17 @@ phks_status phks__eigen_lanczos(const phks__operator_matrix *op, size_t k,
         cap = usable - b;
     if (n < 8 * b || cap < k + guard + 4 * b ||
         (PROBE_STEPS + 1) * b > usable)
-        return phks__eigen_dense(op, k, opt, values, vectors);
+        return phks__eigen_dense(op, k, opt, values, vectors, next);
     phks__operator_pairs pm;
     phks_status st = phks__operator_pairs_build(op, phks__thread_count(opt), &pm);
     if (st != PHKS_OK)
         return st;
     engine eng = {&pm, phks__cpu_avx2(), opt, 0};
-    st = solve_all(&eng, k, guard, cap, op->norm_bound, opt, values, vectors);
+    double upper = INFINITY;
+    st = solve_all(&eng, k, guard, cap, op->norm_bound, opt, values, vectors,
+                   &upper);
+    if (next)
+        *next = upper;
     if (st == PHKS_OK) {
         /* back to the operator's numbering */
         double *column = phks__malloc_array(n, sizeof *column);
@@ -1159,12 +1219,15 @@ phks_status phks__eigen_lanczos(const phks__operator_matrix *op, size_t k,
         phks__free(column);
     }
     phks__operator_pairs_release(&pm);
-    /* Not expected on meshes; the dense solver is exact where it fits. */
+    /* Not expected on connected meshes; the dense solver is exact where
+     * it fits. Where it does not, ARPACK: much slower, but it deflates the
+     * null space exactly and checks for missed copies of a multiple
+     * eigenvalue, which is what stops this solver where the kernel splits
+     * a mesh into many more components than its block (hundreds of
+     * separate triangles: that many zero eigenvalues). */
     if (st == PHKS_ERROR_NO_CONVERGENCE && n <= DENSE_FALLBACK_MAX_N)
-        return phks__eigen_dense(op, k, opt, values, vectors);
+        return phks__eigen_dense(op, k, opt, values, vectors, next);
     if (st == PHKS_ERROR_NO_CONVERGENCE)
-        return phks__fail(PHKS_ERROR_NO_CONVERGENCE,
-                         "Lanczos: no convergence with a basis of %zu vectors",
-                         cap);
+        return phks__eigen_arpack(op, k, opt, values, vectors, next);
     return st;
 }

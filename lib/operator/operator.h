@@ -50,4 +50,17 @@ void phks__operator_release(phks__operator_matrix *op);
 void phks__operator_apply(const phks__operator_matrix *op, const double *x,
                          double *y, size_t k, unsigned threads);
 
+/* ---- B's null space (null_space.c) */
+/* The connected components of the graph of op's non-zero off-diagonal
+ * entries (the kernel's, which may split a connected mesh): *component
+ * (a library allocation, n entries) numbers them 0.. in order of lowest
+ * point, *count is their number. */
+phks_status phks__operator_components(const phks__operator_matrix *op,
+                                      uint32_t **component, size_t *count);
+/* root[i] = sqrt(Mh_i) and scale[c] = 1 / sqrt(Mh of component c): the
+ * unit null vector of component c is root[i] scale[c] on its points. */
+phks_status phks__null_space(const phks__operator_matrix *op,
+                             const uint32_t *component, size_t count,
+                             double *root, double *scale);
+
 #endif /* PHKS_OPERATOR_H */

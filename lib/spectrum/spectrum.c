@@ -24,22 +24,121 @@ void phks_spectrum_free(phks_spectrum *spec)
     phks__free(spec);
 }
 
-static phks_status solve(const phks__operator_matrix *op, size_t k,
-                         const phks_options *opt, double *values,
-                         double *vectors)
+static phks_status run_solver(const phks__operator_matrix *op, size_t k,
+                              const phks_options *opt, double *values,
+                              double *vectors, double *next)
 {
     switch (opt->solver) {
     case PHKS_SOLVER_ARPACK:
-        return phks__eigen_arpack(op, k, opt, values, vectors);
+        return phks__eigen_arpack(op, k, opt, values, vectors, next);
     case PHKS_SOLVER_DENSE:
-        return phks__eigen_dense(op, k, opt, values, vectors);
+        return phks__eigen_dense(op, k, opt, values, vectors, next);
     case PHKS_SOLVER_LANCZOS:
-        return phks__eigen_lanczos(op, k, opt, values, vectors);
+        return phks__eigen_lanczos(op, k, opt, values, vectors, next);
     default:
         if (op->n < AUTO_DENSE_BELOW)
-            return phks__eigen_dense(op, k, opt, values, vectors);
-        return phks__eigen_lanczos(op, k, opt, values, vectors);
+            return phks__eigen_dense(op, k, opt, values, vectors, next);
+        return phks__eigen_lanczos(op, k, opt, values, vectors, next);
     }
+}
+
+static bool cluster_equal(double a, double b, const phks_options *opt)
+{
+    return fabs(b - a) <= PHKS__CLUSTER_TOL * fmax(fabs(b), 1 / opt->tau);
+}
+
+/* The zero eigenvalue's whole cluster, from op's components (zeros of
+ * them), into spec. */
+static phks_status null_pairs(const phks__operator_matrix *op,
+                              const uint32_t *component, size_t zeros,
+                              phks_spectrum *spec)
+{
+    size_t n = op->n;
+    double *root = phks__malloc_array(n, sizeof *root);
+    double *scale = phks__malloc_array(zeros, sizeof *scale);
+    double *values = phks__realloc_array(spec->values, zeros, sizeof(double));
+    if (values)
+        spec->values = values;
+    double *vectors = phks__realloc_array(spec->vectors, n, zeros * sizeof(double));
+    if (vectors)
+        spec->vectors = vectors;
+    phks_status st = root && scale && values && vectors
+                         ? phks__null_space(op, component, zeros, root, scale)
+                         : phks__fail_oom("spectrum");
+    if (st == PHKS_OK) {
+        memset(vectors, 0, n * zeros * sizeof(double));
+        for (size_t i = 0; i < n; i++)
+            vectors[component[i] * n + i] = root[i] * scale[component[i]];
+        for (size_t c = 0; c < zeros; c++)
+            values[c] = 0;
+        spec->count = zeros;
+    }
+    phks__free(root);
+    phks__free(scale);
+    return st;
+}
+
+/* The smallest eigenpairs of op's B into spec->values and spec->vectors
+ * (op->n rows), spec->count of them: k, less the pairs of a cluster of
+ * equal eigenvalues (PHKS__CLUSTER_TOL) that the k-th value would split.
+ * Within such a cluster a solver returns any orthonormal basis, and HKS
+ * sums phi_i(x)^2 over the pairs kept, which is the same for every basis
+ * of a whole cluster only; on an exactly symmetric mesh the cut at k
+ * would otherwise make HKS depend on the solver and on the mesh's
+ * orientation. The zero eigenvalue's cluster (one per component of the
+ * kernel's graph) is known exactly and kept whole even beyond k.
+ * Finding the components reads every entry of op, a measurable part of
+ * a signature's time (docs/benchmarks.md), so it is done only where the
+ * zero cluster may reach k:
+ * beforehand where the mesh has at least k components (`pieces`; Krylov
+ * solvers find a cluster many times wider than their block only slowly,
+ * if at all), afterwards where the solver's k-th value and its next are
+ * both zero. */
+static phks_status solve(const phks__operator_matrix *op, size_t k,
+                         size_t pieces, const phks_options *opt,
+                         phks_spectrum *spec)
+{
+    size_t n = op->n, zeros = 0;
+    uint32_t *component = NULL;
+    phks_status st = PHKS_OK;
+    if (pieces >= k) {
+        st = phks__operator_components(op, &component, &zeros);
+        if (st == PHKS_OK && zeros >= k)
+            st = null_pairs(op, component, zeros, spec);
+        if (st != PHKS_OK || zeros >= k) {
+            phks__free(component);
+            return st;
+        }
+    }
+    phks__free(component);
+    component = NULL;
+    spec->values = phks__malloc_array(k, sizeof(double));
+    spec->vectors = phks__malloc_array(n, k * sizeof(double));
+    if (!spec->values || !spec->vectors)
+        return phks__fail_oom("spectrum");
+    double next = INFINITY;
+    st = run_solver(op, k, opt, spec->values, spec->vectors, &next);
+    spec->count = k;
+    if (st != PHKS_OK || k == n || !cluster_equal(spec->values[k - 1], next, opt))
+        return st;
+    if (cluster_equal(0, spec->values[k - 1], opt)) {
+        /* the zero cluster reaches past k */
+        st = phks__operator_components(op, &component, &zeros);
+        if (st == PHKS_OK && zeros >= k)
+            st = null_pairs(op, component, zeros, spec);
+        /* else eigenvalues within the tolerance of zero but not zero
+         * (components joined by a thread of tiny weights): all k kept */
+        phks__free(component);
+        return st;
+    }
+    size_t count = k - 1;
+    while (count > 0 &&
+           cluster_equal(spec->values[count - 1], spec->values[count], opt))
+        count--;
+    /* a chain of equal values down into the zero cluster: as above */
+    if (count > 0 && !cluster_equal(0, spec->values[count], opt))
+        spec->count = count;
+    return PHKS_OK;
 }
 
 /* Mh^-1/2 scaling, and a sign convention so that results do not depend on
@@ -114,12 +213,9 @@ static phks_status compute_simplified(const phks__unit_mesh *um,
         st = phks__operator_build_points(&points, opt, op_at, &op);
     }
     if (st == PHKS_OK) {
-        spec->count = opt->eigen_count < m ? opt->eigen_count : m;
-        spec->values = phks__malloc_array(spec->count, sizeof(double));
-        spec->vectors = phks__malloc_array(m, spec->count * sizeof(double));
         spec->mass = phks__malloc_array(n, sizeof(double));
         sample_mass = phks__malloc_array(m, sizeof *sample_mass);
-        if (!spec->values || !spec->vectors || !spec->mass || !sample_mass)
+        if (!spec->mass || !sample_mass)
             st = phks__fail_oom("spectrum");
     }
     if (st == PHKS_OK) {
@@ -130,7 +226,8 @@ static phks_status compute_simplified(const phks__unit_mesh *um,
             uint32_t s = samples.of_vertex[v];
             spec->mass[v] = area[v] * (sample_mass[s] / samples.area[s]);
         }
-        st = solve(&op, spec->count, opt, spec->values, spec->vectors);
+        st = solve(&op, opt->eigen_count < m ? opt->eigen_count : m,
+                   mesh->component_count, opt, spec);
     }
     phks__operator_release(&op);
     phks__free(sample_xyz);
@@ -156,15 +253,13 @@ static phks_status compute_exact(const phks__unit_mesh *um,
     if (st != PHKS_OK)
         return st;
     size_t n = spec->n;
-    spec->count = opt->eigen_count < n ? opt->eigen_count : n;
-    spec->values = phks__malloc_array(spec->count, sizeof(double));
-    spec->vectors = phks__malloc_array(n, spec->count * sizeof(double));
     spec->mass = phks__malloc_array(n, sizeof(double));
-    if (!spec->values || !spec->vectors || !spec->mass)
+    if (!spec->mass)
         st = phks__fail_oom("spectrum");
     if (st == PHKS_OK) {
         memcpy(spec->mass, op.mass, n * sizeof(double));
-        st = solve(&op, spec->count, opt, spec->values, spec->vectors);
+        st = solve(&op, opt->eigen_count < n ? opt->eigen_count : n,
+                   um->mesh->component_count, opt, spec);
     }
     phks__operator_release(&op);
     if (st == PHKS_OK)

@@ -30,6 +30,10 @@ double phks__hks_at(const phks_spectrum *spec, double t, size_t v);
 phks_status phks__hks_all(const phks_spectrum *spec, double t,
                          const phks_options *opt, double *out);
 
+/* Eigenvalues within this fraction of max(|lambda|, 1 / tau) of each
+ * other are equal: a spectrum keeps whole clusters of them (phks.h). */
+#define PHKS__CLUSTER_TOL 1e-6
+
 /* The part of PHKS_STAGE_OPERATOR in which a computation's top finds the
  * unit box and the areas (phks__unit_mesh_init) before the operator. */
 #define PHKS__UNIT_MESH_SPAN 0.03
