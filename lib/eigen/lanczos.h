@@ -69,4 +69,127 @@ void phks__block_gram(const double *w, size_t n, double *parts, double *g,
 void phks__block_times_upper(double *w, size_t n, const double *u,
                             unsigned threads, bool avx2);
 
+/* ---- the block Lanczos solver (lanczos*.c) */
+#include <lapacke.h>
+
+#define PHKS__LANCZOS_BLOCK PHKS__PAIR_BLOCK
+
+/* The operator's products as the solver runs them. */
+typedef struct phks__lanczos_engine {
+    const phks__operator_pairs *pm;
+    bool avx2;
+    const phks_options *opt;
+    double fraction;        /* progress reported between products */
+} phks__lanczos_engine;
+
+/* The filter p(B) = T_d((c I - B) / e) (degree 1 with c = 0, e = 1: -B,
+ * which spans the same Krylov space as B). */
+typedef struct phks__lanczos_filter {
+    int degree;
+    double c, e;
+} phks__lanczos_filter;
+
+/* The basis and T with their workspace; columns grow geometrically up to
+ * cap. */
+typedef struct phks__lanczos {
+    size_t n, k, b;
+    bool local;             /* re-orthogonalise against the last two blocks
+                               only (the probe)                              */
+    size_t cap;             /* most basis columns allowed                    */
+    size_t room;            /* basis columns allocated so far                */
+    double *v;              /* n x room, column-major basis                  */
+    double *t;              /* room x room, V^T p(B) V (upper triangle)      */
+    double *w;              /* n x b residual block                          */
+    double *keep;           /* n x b copy of w for repairs                   */
+    double *rows[3];        /* n x b row-major blocks for the operator       */
+    double *c;              /* room x b projection coefficients              */
+    double *tau;            /* b Householder scalars                         */
+    double *ritz;           /* room x room eigenvectors of T                 */
+    double *theta;          /* room eigenvalues of T                         */
+    lapack_int *support;    /* 2 room, for dstemr                            */
+    double *tfull;          /* room x room: T, then its tridiagonal reduction */
+    double *diag, *off, *reflect; /* room each: T's tridiagonal form and
+                               the reflectors' scalars                       */
+    double *diag_work, *off_work; /* room each: its copy for dstemr          */
+    double *edge;           /* room x b: Q^T of the last b unit vectors      */
+    double *gram_parts;     /* partial Gram matrices of Cholesky QR          */
+    double *saved;          /* n x b row-major: the block before its QR      */
+    double *bottom;         /* b x room: last b rows of T's eigenvectors     */
+} phks__lanczos;
+
+/* What a block step applies: the filter, through the engine. */
+typedef struct phks__lanczos_run {
+    const phks__lanczos_engine *eng;
+    const phks__lanczos_filter *f;
+} phks__lanczos_run;
+
+/* Where the extraction leaves the k lowest eigenpairs of B: values
+ * ascending, vectors column-major n x k, worst a bound on their largest
+ * residual |B x - lambda x|, next an upper estimate of lambda_{k+1}
+ * (Rayleigh-Ritz sets it; the caller otherwise). */
+typedef struct phks__lanczos_out {
+    double *values, *vectors;
+    double worst, next;
+} phks__lanczos_out;
+
+/* lanczos_filter.c: column-major n x BLOCK <-> row-major blocks; p(B) on a
+ * column-major block, left row-major in one of r[0..2] (*result) or
+ * written column-major to out; the eigenvalue of B that p maps to theta. */
+void phks__lanczos_to_rows(const phks__lanczos_engine *e, const double *cols,
+                           double *rows, size_t n);
+void phks__lanczos_to_cols(const phks__lanczos_engine *e, const double *rows,
+                           double *cols, size_t n);
+phks_status phks__lanczos_apply_rows(const phks__lanczos_engine *e,
+                                      const phks__lanczos_filter *f,
+                                      const double *in, double *r[3], size_t n,
+                                      double **result);
+phks_status phks__lanczos_apply(const phks__lanczos_engine *e,
+                                 const phks__lanczos_filter *f,
+                                 const double *in, double *out, double *r[3],
+                                 size_t n);
+double phks__lanczos_filter_inverse(const phks__lanczos_filter *f,
+                                    double theta);
+
+/* lanczos_basis.c: the workspace; a fixed random block; Householder QR of
+ * a block (*smallest: its weakest direction, relative); one block step of
+ * the recurrence (W = p(B) V_last, orthogonalised, the next block in L->w
+ * and its coupling in r). */
+void phks__lanczos_release(phks__lanczos *L);
+phks_status phks__lanczos_reserve(phks__lanczos *L, size_t columns);
+phks_status phks__lanczos_allocate(phks__lanczos *L, size_t first);
+void phks__lanczos_random_block(double *w, size_t n, size_t b, uint64_t seed);
+phks_status phks__lanczos_qr(phks__lanczos *L, double *w, double *r,
+                             double *smallest);
+phks_status phks__lanczos_step(phks__lanczos *L, const phks__lanczos_run *rc,
+                               size_t m, double *r);
+
+/* lanczos_tridiag.c: T's tridiagonal reduction and its eigenpairs il..iu
+ * (1-based), both at once (eig_t); Ritz vectors of T; a Ritz pair's
+ * residual; the convergence check at basis size m. */
+phks_status phks__lanczos_reduce_t(phks__lanczos *L, size_t m);
+phks_status phks__lanczos_pairs_t(phks__lanczos *L, size_t m, size_t il,
+                                  size_t iu, bool vectors);
+phks_status phks__lanczos_eig_t(phks__lanczos *L, size_t m, size_t il,
+                                size_t iu);
+phks_status phks__lanczos_ritz_vectors(phks__lanczos *L, size_t m,
+                                       size_t first, size_t count);
+double phks__lanczos_ritz_residual(const phks__lanczos *L, const double *r,
+                                   size_t e);
+phks_status phks__lanczos_check(phks__lanczos *L, const double *r, size_t m,
+                                size_t q, size_t k, double scale,
+                                double *excess);
+
+/* lanczos_extract.c: the k lowest eigenpairs of B from the converged
+ * basis: Ritz vectors as they are, with a sketched bound on their
+ * residuals (*worst), or Rayleigh-Ritz with B on the top q. */
+phks_status phks__lanczos_ritz_pairs(phks__lanczos *L,
+                                     const phks__lanczos_engine *eng,
+                                     const phks__lanczos_filter *f, size_t m,
+                                     size_t q, size_t k,
+                                     phks__lanczos_out *out);
+phks_status phks__lanczos_rayleigh_ritz(phks__lanczos *L,
+                                        const phks__lanczos_engine *eng,
+                                        size_t m, size_t q, size_t k,
+                                        phks__lanczos_out *out);
+
 #endif /* PHKS_LANCZOS_H */
