@@ -1,7 +1,8 @@
 /*
- * lanczos.h - the block Lanczos solver's own pieces (lanczos.c): the
- * operator laid out for block products, the Gram-Schmidt products and the
- * Ritz vectors' product. Private to the eigen layer.
+ * lanczos.h - the block Lanczos solver's own pieces (lanczos*.c): the
+ * operator laid out for block products, the Gram-Schmidt products, the
+ * Ritz vectors' product, and the solver's workspace and steps shared
+ * between its files. Private to the eigen layer.
  */
 #ifndef PHKS_LANCZOS_H
 #define PHKS_LANCZOS_H
