@@ -10,6 +10,8 @@
 #include "eigen/eigen.h"
 #include "core/simd.h"
 
+#include <lapacke.h>
+
 /* ---- the operator laid out for block products (lanczos_pairs.c) */
 /* Rows taken two at a time in op->order (the identity without one): pair g
  * holds rows 2g and 2g + 1 of P B P^T, where row r is point order[r], as
@@ -71,7 +73,6 @@ void phks__block_times_upper(double *w, size_t n, const double *u,
                             unsigned threads, bool avx2);
 
 /* ---- the block Lanczos solver (lanczos*.c) */
-#include <lapacke.h>
 
 #define PHKS__LANCZOS_BLOCK PHKS__PAIR_BLOCK
 
