@@ -312,10 +312,7 @@ phks_status phks_signature_compute(const phks_mesh *mesh,
      * the local areas alike. */
     phks__unit_mesh um;
     phks_spectrum *spec = NULL;
-    phks__span at = {&opt, PHKS_STAGE_OPERATOR, 0, PHKS__UNIT_MESH_SPAN};
-    st = phks__progress(&opt, PHKS_STAGE_OPERATOR, 0);
-    if (st == PHKS_OK)
-        st = phks__unit_mesh_init(mesh, (phks_box)opt.box, at, &um);
+    st = phks__spectrum_unit_mesh(mesh, &opt, &um);
     if (st != PHKS_OK)
         return st;
     st = phks__spectrum_compute(&um, &opt, &spec);

@@ -294,6 +294,17 @@ phks_status phks__spectrum_compute(const phks__unit_mesh *um,
     return PHKS_OK;
 }
 
+phks_status phks__spectrum_unit_mesh(const phks_mesh *mesh,
+                                     const phks_options *opt,
+                                     phks__unit_mesh *um)
+{
+    phks__span at = {opt, PHKS_STAGE_OPERATOR, 0, PHKS__UNIT_MESH_SPAN};
+    phks_status st = phks__progress(opt, PHKS_STAGE_OPERATOR, 0);
+    return st == PHKS_OK
+               ? phks__unit_mesh_init(mesh, (phks_box)opt->box, at, um)
+               : st;
+}
+
 phks_status phks_spectrum_compute(const phks_mesh *mesh,
                                   const phks_options *options,
                                   phks_spectrum **out)
@@ -308,10 +319,7 @@ phks_status phks_spectrum_compute(const phks_mesh *mesh,
     if (st != PHKS_OK)
         return st;
     phks__unit_mesh um;
-    phks__span at = {&opt, PHKS_STAGE_OPERATOR, 0, PHKS__UNIT_MESH_SPAN};
-    st = phks__progress(&opt, PHKS_STAGE_OPERATOR, 0);
-    if (st == PHKS_OK)
-        st = phks__unit_mesh_init(mesh, (phks_box)opt.box, at, &um);
+    st = phks__spectrum_unit_mesh(mesh, &opt, &um);
     if (st != PHKS_OK)
         return st;
     st = phks__spectrum_compute(&um, &opt, out);

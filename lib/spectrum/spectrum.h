@@ -35,8 +35,15 @@ phks_status phks__hks_all(const phks_spectrum *spec, double t,
 #define PHKS__CLUSTER_TOL 1e-6
 
 /* The part of PHKS_STAGE_OPERATOR in which a computation's top finds the
- * unit box and the areas (phks__unit_mesh_init) before the operator. */
+ * unit box and the areas before the operator. */
 #define PHKS__UNIT_MESH_SPAN 0.03
+
+/* The unit box and the areas of mesh as a spectrum computation starts
+ * (progress: PHKS_STAGE_OPERATOR from 0 to PHKS__UNIT_MESH_SPAN), for
+ * phks__spectrum_compute and whatever else the caller needs them for. */
+phks_status phks__spectrum_unit_mesh(const phks_mesh *mesh,
+                                     const phks_options *opt,
+                                     phks__unit_mesh *um);
 
 /* phks_spectrum_compute on resolved options, for the mesh seen through um
  * (its unit box's scale and areas, computed once by the caller). Enters
