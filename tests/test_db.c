@@ -302,9 +302,9 @@ START_TEST(file_layout_is_as_documented)
     ck_assert_int_eq(phks_db_add(db, "five", "label", sig, &id), PHKS_OK);
     phks_db_close(db);
     sql_is(path, "PRAGMA application_id", "1346915155"); /* "PHKS" */
-    sql_is(path, "PRAGMA user_version", "1");
+    sql_is(path, "PRAGMA user_version", "2");
     sql_is(path, "PRAGMA journal_mode", "wal");
-    sql_is(path, "SELECT value FROM meta WHERE key = 'format'", "1");
+    sql_is(path, "SELECT value FROM meta WHERE key = 'format'", "2");
     sql_is(path, "SELECT value FROM meta WHERE key = 'library_version'",
            phks_version_string());
     sql_is(path, "SELECT name || '/' || label FROM entries", "five/label");
@@ -312,7 +312,17 @@ START_TEST(file_layout_is_as_documented)
     sql_is(path,
            "SELECT group_concat(name) FROM (SELECT name FROM sqlite_master "
            "WHERE type = 'table' ORDER BY name)",
-           "entries,meta,sqlite_sequence");
+           "entries,meta,pack_state,packs,sqlite_sequence");
+    sql_is(path,
+           "SELECT group_concat(name) FROM (SELECT name FROM sqlite_master "
+           "WHERE type = 'trigger' ORDER BY name)",
+           "entries_delete,entries_insert,entries_update");
+    /* One chunk holds the entry; pack_state says it covers the rows. */
+    sql_is(path, "SELECT rows || ' ' || changes || ' ' || pack_changes "
+                 "FROM pack_state", "1 1 1");
+    sql_is(path, "SELECT start || ' ' || entries || ' ' || vectors || ' ' || "
+                 "text || ' ' || hex(substr(data, 1, 8)) FROM packs",
+           "1 1 120 11 50484B5001000000");
 
     /* The stored blob is phks_signature_encode's; the options value is a
      * blob the codec decodes to the options of the first signature. */
@@ -647,12 +657,12 @@ START_TEST(foreign_newer_and_damaged_files_are_refused)
     int64_t id;
     ck_assert_int_eq(phks_db_add(db, "x", NULL, sig, &id), PHKS_OK);
     phks_db_close(db);
-    free(sql(good, "PRAGMA user_version = 2"));
+    free(sql(good, "PRAGMA user_version = 3"));
     ck_assert_int_eq(phks_db_open(good, 0, &db), PHKS_ERROR_UNSUPPORTED_VERSION);
     ck_assert_int_eq(phks_db_open(good, PHKS_DB_READONLY, &db),
                      PHKS_ERROR_UNSUPPORTED_VERSION);
     ck_assert_ptr_null(db);
-    free(sql(good, "PRAGMA user_version = 1"));
+    free(sql(good, "PRAGMA user_version = 2"));
 
     /* A damaged signature blob: get and query say CORRUPT, count works. */
     free(sql(good, "UPDATE entries SET signature = x'50484B5302000000'"));
