@@ -28,6 +28,7 @@
 #include <limits.h>
 #include <pthread.h>
 #include <sqlite3.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -1001,6 +1002,15 @@ static phks_status load_rows(phks_db *db)
     return st;
 }
 
+/* Loads that read the chunks, and loads that decoded the rows. */
+static atomic_ulong loads_from_pack, loads_from_rows;
+
+void phks__db_load_counts(unsigned long *from_pack, unsigned long *from_rows)
+{
+    *from_pack = atomic_load(&loads_from_pack);
+    *from_rows = atomic_load(&loads_from_rows);
+}
+
 /* Reads every entry into a new cache in one read transaction: from the
  * packed chunks when they are current, else from the rows. Called with
  * lock held; takes cache_lock. */
@@ -1036,6 +1046,7 @@ static phks_status reload(phks_db *db)
     if (st == PHKS_OK) {
         db->cache_loaded = true;
         db->cache_version = version;
+        atomic_fetch_add(from_rows ? &loads_from_rows : &loads_from_pack, 1);
     } else {
         rollback(db);
         drop_cache(db);

@@ -77,4 +77,8 @@ phks_status phks__db_pack_decode(phks__db_cache *cache, int64_t start,
                                 size_t size, phks__db_pack_read_fn read,
                                 void *ctx);
 
+/* For the tests (db.c): how many loads of a handle's cache, since the
+ * process started, read the packed chunks, and how many decoded the rows. */
+void phks__db_load_counts(unsigned long *from_pack, unsigned long *from_rows);
+
 #endif /* PHKS_DB_CACHE_H */

@@ -275,7 +275,7 @@ phks_status phks__db_pack_decode(phks__db_cache *c, int64_t start,
                                 size_t size, phks__db_pack_read_fn read,
                                 void *ctx)
 {
-    unsigned char head[HEADER], pad[8], trailer[TRAILER];
+    unsigned char head[HEADER], pad[16], trailer[TRAILER];
     if (size < HEADER + TRAILER)
         return PHKS_ERROR_CORRUPT;
     phks_status st = read(ctx, head, HEADER, 0);
@@ -306,7 +306,7 @@ phks_status phks__db_pack_decode(phks__db_cache *c, int64_t start,
         (st = read(ctx, pad, fpad, at += 4 * n)) != PHKS_OK ||
         (st = read(ctx, vectors, 8 * doubles, at += fpad)) != PHKS_OK ||
         (st = read(ctx, texts, text, at += 8 * doubles)) != PHKS_OK ||
-        (st = read(ctx, pad + fpad, tpad, at += text)) != PHKS_OK ||
+        (st = read(ctx, pad + 8, tpad, at += text)) != PHKS_OK ||
         (st = read(ctx, trailer, TRAILER, at += tpad)) != PHKS_OK)
         return st;
     sum s;
@@ -317,7 +317,7 @@ phks_status phks__db_pack_decode(phks__db_cache *c, int64_t start,
     sum_bytes(&s, pad, fpad);
     sum_bytes(&s, vectors, 8 * doubles);
     sum_bytes(&s, texts, text);
-    sum_bytes(&s, pad + fpad, tpad);
+    sum_bytes(&s, pad + 8, tpad);
     for (size_t i = 0; i < sizeof pad; i++)
         if (pad[i])
             return PHKS_ERROR_CORRUPT;
