@@ -19,8 +19,10 @@
  * with phks_db_add_batch (batches of 10,000) and closes it, then R times
  * opens a new handle, runs one query (which loads the packed copy) and
  * closes it, and prints the median and fastest of open + first query,
- * the median CPU time of open + first query (all threads), and the median
- * of a second query on the same handle. With --keep the file is left in
+ * the median CPU time of open + first query (all threads), the median
+ * of a second query on the same handle, and the medians of 9 single
+ * phks_db_add and phks_db_remove calls (each its own transaction) on a
+ * handle that has not queried; the file ends as it began. With --keep the file is left in
  * place, and a later --reopen --keep on a file that already holds SIZE
  * entries skips the filling (the "add s" column then reads 0).
  */
@@ -127,13 +129,36 @@ static int run_reopen(size_t size, int runs, size_t k, const char *file,
         phks_db_close(db);
         phks_signature_free(q);
     }
+    /* One add and one removal at a time on a handle that has not
+     * queried: each is its own transaction (and fsync). */
+    double adds[9], removes[9];
+    phks_db *db;
+    if (phks_db_open(file, 0, &db) != PHKS_OK)
+        return fail("open");
+    for (int r = 0; r < 9; r++) {
+        phks_signature *sig = synthetic(&state);
+        int64_t id;
+        double t0 = now();
+        if (phks_db_add(db, "single", "odd", sig, &id) != PHKS_OK)
+            return fail("add");
+        adds[r] = now() - t0;
+        t0 = now();
+        if (phks_db_remove(db, id) != PHKS_OK)
+            return fail("remove");
+        removes[r] = now() - t0;
+        phks_signature_free(sig);
+    }
+    phks_db_close(db);
     qsort(first, (size_t)runs, sizeof *first, by_value);
     qsort(second, (size_t)runs, sizeof *second, by_value);
     qsort(cpu, (size_t)runs, sizeof *cpu, by_value);
-    printf("%10zu %9.2f %11.1f %11.1f %11.1f %11.2f %9.0f  best %s %.4g\n",
+    qsort(adds, 9, sizeof *adds, by_value);
+    qsort(removes, 9, sizeof *removes, by_value);
+    printf("%10zu %9.2f %11.1f %11.1f %11.1f %11.2f %9.0f %9.2f %9.2f  "
+           "best %s %.4g\n",
            size, t_add, first[runs / 2] * 1e3, first[0] * 1e3,
            cpu[runs / 2] * 1e3, second[runs / 2] * 1e3, peak_mb(),
-           hits[0].name, hits[0].score);
+           adds[4] * 1e3, removes[4] * 1e3, hits[0].name, hits[0].score);
     fflush(stdout);
     if (!keep)
         unlink(file);
@@ -267,8 +292,9 @@ int main(int argc, char **argv)
            "%d queries\n", k, FEATURES, SCALES, sysconf(_SC_NPROCESSORS_ONLN),
            runs);
     if (reopen)
-        printf("%10s %9s %11s %11s %11s %11s %9s\n", "entries", "add s",
-               "open+1st ms", "best ms", "cpu ms", "2nd ms", "peak MB");
+        printf("%10s %9s %11s %11s %11s %11s %9s %9s %9s\n", "entries",
+               "add s", "open+1st ms", "best ms", "cpu ms", "2nd ms",
+               "peak MB", "add1 ms", "rm1 ms");
     else
         printf("%10s %9s %11s %11s %11s %11s %9s\n", "entries", "add s",
                "first ms", "median ms", "best ms", "cpu ms", "peak MB");
