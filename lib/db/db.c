@@ -883,14 +883,14 @@ static phks_status load_pack(phks_db *db, const pack_state *ps)
     sqlite3_finalize(stmt);
     if (st != PHKS_OK)
         return st;
-    /* The totals only size the cache; the chunks are checked one by one. */
-    if (entries != (double)ps->rows || vectors < 0 || text < 0 ||
-        vectors > 1e15 || text > 1e15 ||
-        (ps->rows && !db->has_options))
+    /* The totals only size the cache (the chunks are checked one by one):
+     * when that much memory is not there, the chunks' reads find out
+     * whether it was needed. */
+    if (entries != (double)ps->rows || (ps->rows && !db->has_options))
         return PHKS_ERROR_CORRUPT;
-    if (phks__db_cache_reserve(&db->cache, (size_t)entries, (size_t)vectors,
-                              (size_t)text) != PHKS_OK)
-        return phks__fail_oom("database cache");
+    if (vectors >= 0 && text >= 0 && vectors < 1e15 && text < 1e15)
+        (void)phks__db_cache_reserve(&db->cache, (size_t)entries,
+                                    (size_t)vectors, (size_t)text);
     if ((st = prepare(db, "SELECT start, entries FROM packs ORDER BY start",
                       &stmt)) != PHKS_OK)
         return st;
