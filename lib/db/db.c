@@ -20,8 +20,13 @@
  *
  * Cache refresh: PRAGMA data_version changes when another connection (this
  * process or another) commits. Each query compares it with the value read
- * when the cache was loaded and reloads on a change. This handle's own
- * writes leave data_version as it is and update the cache in place.
+ * when the cache was loaded (one prepared statement, no work per entry)
+ * and reloads on a change. This handle's own writes leave data_version as
+ * it is and update the cache in place.
+ *
+ * Format 2 keeps the packed copy in the file too (table packs, chunks
+ * laid out by db_pack.c): a reload reads it, and every write updates it
+ * in its own transaction; see "the packed chunks" below.
  */
 #include "db/db_cache.h"
 
