@@ -696,15 +696,17 @@ static phks_status write_all_chunks(phks_db *db, const phks__db_cache *c)
 {
     phks_status st = exec(db, "DELETE FROM packs", "cannot clear the packs");
     size_t begin = 0, bytes = 0;
-    for (size_t e = 0; e < c->count && st == PHKS_OK; e++) {
-        if (!c->features[e])
+    for (size_t e = 0; e <= c->count && st == PHKS_OK; e++) {
+        if (e < c->count && !c->features[e])
             continue;
-        bytes += 12 + 8 * phks__db_padded(c->features[e]) * c->length + 32;
-        if (bytes >= PACK_CHUNK_BYTES || e + 1 == c->count) {
-            while (!c->features[begin])
+        if (e < c->count)
+            bytes += 12 + 8 * phks__db_padded(c->features[e]) * c->length + 32;
+        if (bytes && (bytes >= PACK_CHUNK_BYTES || e == c->count)) {
+            size_t end = e < c->count ? e + 1 : e;
+            while (!c->features[begin]) /* a live slot lies below end */
                 begin++;
-            st = write_chunk(db, c->ids[begin], c, begin, e + 1);
-            begin = e + 1;
+            st = write_chunk(db, c->ids[begin], c, begin, end);
+            begin = end;
             bytes = 0;
         }
     }
