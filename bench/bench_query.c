@@ -5,6 +5,7 @@
  * skip little; real catalogues with classes are easier).
  *
  *   bench-query [--runs R] [--k K] [--file PATH] [SIZE...]
+ *   bench-query --reopen --file PATH [--keep] [--runs R] [--k K] [SIZE...]
  *
  * Default sizes 300 and 1000000, R = 9 queries per size, K = 10, the
  * database in memory (--file PATH: a new file, deleted afterwards). For
@@ -13,6 +14,17 @@
  * median CPU time of a query (all threads: on a busy machine this, divided
  * by the CPU count, is what the wall time would be on an idle one) and the
  * peak resident memory so far. Threads: all online CPUs.
+ *
+ * --reopen times the start of a fresh handle instead: it fills the file
+ * with phks_db_add_batch (batches of 10,000) and closes it, then R times
+ * opens a new handle, runs one query (which loads the packed copy) and
+ * closes it, and prints the median and fastest of open + first query,
+ * the median CPU time of open + first query (all threads), the median
+ * of a second query on the same handle, and the medians of 9 single
+ * phks_db_add and phks_db_remove calls (each its own transaction) on a
+ * handle that has not queried; the file ends as it began. With --keep the file is left in
+ * place, and a later --reopen --keep on a file that already holds SIZE
+ * entries skips the filling (the "add s" column then reads 0).
  */
 #include "features/features.h"
 
@@ -88,14 +100,91 @@ static int fail(const char *what)
     return 1;
 }
 
+static bool reopen, keep;
+
+/* --reopen: R fresh handles on file, each timed from open through its
+ * first query; then a second query on the same handle. */
+static int run_reopen(size_t size, int runs, size_t k, const char *file,
+                      double t_add, uint64_t state)
+{
+    phks_hit *hits = calloc(k, sizeof *hits);
+    double *first = calloc((size_t)runs, sizeof *first);
+    double *second = calloc((size_t)runs, sizeof *second);
+    double *cpu = calloc((size_t)runs, sizeof *cpu);
+    size_t count;
+    for (int r = 0; r < runs; r++) {
+        phks_signature *q = synthetic(&state);
+        phks_db *db;
+        double c0 = cpu_seconds(), t0 = now();
+        if (phks_db_open(file, 0, &db) != PHKS_OK)
+            return fail("open");
+        if (phks_db_query(db, q, k, hits, &count) != PHKS_OK)
+            return fail("query");
+        first[r] = now() - t0;
+        cpu[r] = cpu_seconds() - c0;
+        t0 = now();
+        if (phks_db_query(db, q, k, hits, &count) != PHKS_OK)
+            return fail("query");
+        second[r] = now() - t0;
+        phks_db_close(db);
+        phks_signature_free(q);
+    }
+    /* One add and one removal at a time on a handle that has not
+     * queried: each is its own transaction (and fsync). */
+    double adds[9], removes[9];
+    phks_db *db;
+    if (phks_db_open(file, 0, &db) != PHKS_OK)
+        return fail("open");
+    for (int r = 0; r < 9; r++) {
+        phks_signature *sig = synthetic(&state);
+        int64_t id;
+        double t0 = now();
+        if (phks_db_add(db, "single", "odd", sig, &id) != PHKS_OK)
+            return fail("add");
+        adds[r] = now() - t0;
+        t0 = now();
+        if (phks_db_remove(db, id) != PHKS_OK)
+            return fail("remove");
+        removes[r] = now() - t0;
+        phks_signature_free(sig);
+    }
+    phks_db_close(db);
+    qsort(first, (size_t)runs, sizeof *first, by_value);
+    qsort(second, (size_t)runs, sizeof *second, by_value);
+    qsort(cpu, (size_t)runs, sizeof *cpu, by_value);
+    qsort(adds, 9, sizeof *adds, by_value);
+    qsort(removes, 9, sizeof *removes, by_value);
+    printf("%10zu %9.2f %11.1f %11.1f %11.1f %11.2f %9.0f %9.2f %9.2f  "
+           "best %s %.4g\n",
+           size, t_add, first[runs / 2] * 1e3, first[0] * 1e3,
+           cpu[runs / 2] * 1e3, second[runs / 2] * 1e3, peak_mb(),
+           adds[4] * 1e3, removes[4] * 1e3, hits[0].name, hits[0].score);
+    fflush(stdout);
+    if (!keep)
+        unlink(file);
+    free(first);
+    free(second);
+    free(cpu);
+    free(hits);
+    return 0;
+}
+
 static int run(size_t size, int runs, size_t k, const char *file)
 {
+    phks_db *db;
+    uint64_t state = 12345;
+    if (reopen && keep &&
+        phks_db_open(file, PHKS_DB_READONLY, &db) == PHKS_OK) {
+        size_t have = 0;
+        phks_status st = phks_db_count(db, &have);
+        phks_db_close(db);
+        if (st == PHKS_OK && have == size) /* filled by an earlier run */
+            return run_reopen(size, runs, k, file, 0, state + 1);
+    }
     if (file)
         unlink(file);
-    phks_db *db;
     if (phks_db_open(file ? file : ":memory:", PHKS_DB_CREATE, &db) != PHKS_OK)
         return fail("open");
-    uint64_t state = 12345;
     phks_signature **sigs = calloc(BATCH, sizeof *sigs);
     phks_db_entry *entries = calloc(BATCH, sizeof *entries);
     char (*names)[32] = calloc(BATCH, sizeof *names);
@@ -116,6 +205,13 @@ static int run(size_t size, int runs, size_t k, const char *file)
         done += n;
     }
     double t_add = now() - t0;
+    if (reopen) {
+        phks_db_close(db);
+        free(names);
+        free(entries);
+        free(sigs);
+        return run_reopen(size, runs, k, file, t_add, state);
+    }
 
     phks_hit *hits = calloc(k, sizeof *hits);
     double *times = calloc((size_t)runs, sizeof *times);
@@ -168,16 +264,24 @@ int main(int argc, char **argv)
             k = (size_t)strtoull(argv[++i], NULL, 10);
         else if (!strcmp(argv[i], "--file") && i + 1 < argc)
             file = argv[++i];
+        else if (!strcmp(argv[i], "--reopen"))
+            reopen = true;
+        else if (!strcmp(argv[i], "--keep"))
+            keep = true;
         else if (argv[i][0] != '-' && nsizes < 16)
             sizes[nsizes++] = (size_t)strtoull(argv[i], NULL, 10);
         else {
             fprintf(stderr, "usage: %s [--runs R] [--k K] [--file PATH] "
-                            "[SIZE...]\n", argv[0]);
+                            "[--reopen [--keep]] [SIZE...]\n", argv[0]);
             return 2;
         }
     }
     if (runs < 1 || k < 1) {
         fprintf(stderr, "bench-query: runs and k must be positive\n");
+        return 2;
+    }
+    if ((reopen || keep) && !file) {
+        fprintf(stderr, "bench-query: --reopen and --keep need --file\n");
         return 2;
     }
     if (nsizes == 0) {
@@ -187,8 +291,13 @@ int main(int argc, char **argv)
     printf("top-%zu of %d x %d synthetic signatures, %ld CPUs, median of "
            "%d queries\n", k, FEATURES, SCALES, sysconf(_SC_NPROCESSORS_ONLN),
            runs);
-    printf("%10s %9s %11s %11s %11s %11s %9s\n", "entries", "add s",
-           "first ms", "median ms", "best ms", "cpu ms", "peak MB");
+    if (reopen)
+        printf("%10s %9s %11s %11s %11s %11s %9s %9s %9s\n", "entries",
+               "add s", "open+1st ms", "best ms", "cpu ms", "2nd ms",
+               "peak MB", "add1 ms", "rm1 ms");
+    else
+        printf("%10s %9s %11s %11s %11s %11s %9s\n", "entries", "add s",
+               "first ms", "median ms", "best ms", "cpu ms", "peak MB");
     for (size_t i = 0; i < nsizes; i++)
         if (run(sizes[i], runs, k, file) != 0)
             return 1;

@@ -7,6 +7,7 @@
  * with valid options) except in one end-to-end case, so the suite is fast. */
 #include "testutil.h"
 #include "shapes.h"
+#include "db/db_cache.h"
 
 #include <dirent.h>
 #include <fcntl.h>
@@ -302,9 +303,10 @@ START_TEST(file_layout_is_as_documented)
     ck_assert_int_eq(phks_db_add(db, "five", "label", sig, &id), PHKS_OK);
     phks_db_close(db);
     sql_is(path, "PRAGMA application_id", "1346915155"); /* "PHKS" */
-    sql_is(path, "PRAGMA user_version", "1");
+    sql_is(path, "PRAGMA user_version", "2");
     sql_is(path, "PRAGMA journal_mode", "wal");
-    sql_is(path, "SELECT value FROM meta WHERE key = 'format'", "1");
+    sql_is(path, "PRAGMA page_size", "65536");
+    sql_is(path, "SELECT value FROM meta WHERE key = 'format'", "2");
     sql_is(path, "SELECT value FROM meta WHERE key = 'library_version'",
            phks_version_string());
     sql_is(path, "SELECT name || '/' || label FROM entries", "five/label");
@@ -312,7 +314,17 @@ START_TEST(file_layout_is_as_documented)
     sql_is(path,
            "SELECT group_concat(name) FROM (SELECT name FROM sqlite_master "
            "WHERE type = 'table' ORDER BY name)",
-           "entries,meta,sqlite_sequence");
+           "entries,meta,pack_state,packs,sqlite_sequence");
+    sql_is(path,
+           "SELECT group_concat(name) FROM (SELECT name FROM sqlite_master "
+           "WHERE type = 'trigger' ORDER BY name)",
+           "entries_delete,entries_insert,entries_update");
+    /* One chunk holds the entry; pack_state says it covers the rows. */
+    sql_is(path, "SELECT rows || ' ' || changes || ' ' || pack_changes "
+                 "FROM pack_state", "1 1 1");
+    sql_is(path, "SELECT start || ' ' || entries || ' ' || vectors || ' ' || "
+                 "text || ' ' || hex(substr(data, 1, 8)) FROM packs",
+           "1 1 120 11 50484B5001000000");
 
     /* The stored blob is phks_signature_encode's; the options value is a
      * blob the codec decodes to the options of the first signature. */
@@ -647,12 +659,12 @@ START_TEST(foreign_newer_and_damaged_files_are_refused)
     int64_t id;
     ck_assert_int_eq(phks_db_add(db, "x", NULL, sig, &id), PHKS_OK);
     phks_db_close(db);
-    free(sql(good, "PRAGMA user_version = 2"));
+    free(sql(good, "PRAGMA user_version = 3"));
     ck_assert_int_eq(phks_db_open(good, 0, &db), PHKS_ERROR_UNSUPPORTED_VERSION);
     ck_assert_int_eq(phks_db_open(good, PHKS_DB_READONLY, &db),
                      PHKS_ERROR_UNSUPPORTED_VERSION);
     ck_assert_ptr_null(db);
-    free(sql(good, "PRAGMA user_version = 1"));
+    free(sql(good, "PRAGMA user_version = 2"));
 
     /* A damaged signature blob: get and query say CORRUPT, count works. */
     free(sql(good, "UPDATE entries SET signature = x'50484B5302000000'"));
@@ -724,6 +736,11 @@ START_TEST(every_damaged_page_is_refused_or_harmless)
     char *good = in_dir(dir, "good.db"), *bad = in_dir(dir, "bad.db");
     uint64_t seed = 77;
     phks_db *db;
+    /* An empty file of 4 KB pages (the library keeps an existing file's
+     * page size, and gives new files 64 KB), so that the entries span
+     * many pages. */
+    free(sql(good, "PRAGMA user_version = 0"));
+    sql_is(good, "PRAGMA page_size", "4096");
     ck_assert_int_eq(phks_db_open(good, PHKS_DB_CREATE, &db), PHKS_OK);
     for (int i = 0; i < 60; i++) {
         phks_signature *sig = synthetic(15, &seed, false);
@@ -745,6 +762,8 @@ START_TEST(every_damaged_page_is_refused_or_harmless)
     size_t size = fread(file, 1, 1 << 20, f);
     fclose(f);
     size_t page = (size_t)file[16] << 8 | file[17];
+    if (page == 1)
+        page = 65536;
     ck_assert_uint_ge(size / page, 40); /* the entries span many pages */
     size_t refused = 0;
     for (size_t p = 0; p < size / page; p++) {
@@ -1301,6 +1320,392 @@ START_TEST(bad_arguments_are_refused)
 }
 END_TEST
 
+/* ---- the packed chunks (format 2) */
+
+static unsigned long loads(bool from_rows)
+{
+    unsigned long pack, rows;
+    phks__db_load_counts(&pack, &rows);
+    return from_rows ? rows : pack;
+}
+
+/* A database of n entries of 1 + i % 37 features, named "e<i>", labelled
+ * as query_matches_oracle expects, added in batches and one by one. */
+typedef struct packed_db {
+    size_t n;
+    phks_signature **sigs;
+    int64_t *ids;
+    char (*names)[32];
+    phks_signature *queries[4];
+} packed_db;
+
+static void packed_db_make(packed_db *p, const char *path, size_t n)
+{
+    uint64_t seed = 77;
+    p->n = n;
+    p->sigs = calloc(n, sizeof *p->sigs);
+    p->ids = calloc(n, sizeof *p->ids);
+    p->names = calloc(n, sizeof *p->names);
+    for (int q = 0; q < 4; q++)
+        p->queries[q] = synthetic(3 + 5 * (size_t)q, &seed, false);
+    phks_db *db;
+    ck_assert_int_eq(phks_db_open(path, PHKS_DB_CREATE, &db), PHKS_OK);
+    phks_db_entry *e = calloc(n, sizeof *e);
+    for (size_t i = 0; i < n; i++) {
+        p->sigs[i] = synthetic(1 + i % 37, &seed, false);
+        snprintf(p->names[i], sizeof p->names[i], "e%zu", i);
+        e[i] = (phks_db_entry){p->names[i], i % 3 ? "odd" : NULL, p->sigs[i]};
+    }
+    size_t done = 0;
+    for (; done < 5 && done < n; done++)
+        ck_assert_int_eq(phks_db_add(db, e[done].name, e[done].label,
+                                     e[done].signature, &p->ids[done]),
+                         PHKS_OK);
+    while (done < n) {
+        size_t take = n - done < 250 ? n - done : 250;
+        ck_assert_int_eq(phks_db_add_batch(db, e + done, take, p->ids + done),
+                         PHKS_OK);
+        done += take;
+    }
+    free(e);
+    phks_db_close(db);
+}
+
+static void packed_db_free(packed_db *p)
+{
+    for (size_t i = 0; i < p->n; i++)
+        phks_signature_free(p->sigs[i]);
+    for (int q = 0; q < 4; q++)
+        phks_signature_free(p->queries[q]);
+    free(p->sigs);
+    free(p->ids);
+    free(p->names);
+}
+
+typedef struct top10 {
+    size_t count;
+    phks_hit hits[10];
+} top10;
+
+/* The answers of a fresh handle to the four queries, checked against the
+ * oracle; from_rows says how its cache must have been loaded. */
+static void fresh_answers(const packed_db *p, const char *path, unsigned flags,
+                          bool from_rows, top10 out[4])
+{
+    unsigned long pack0 = loads(false), rows0 = loads(true);
+    phks_db *db;
+    ck_assert_int_eq(phks_db_open(path, flags, &db), PHKS_OK);
+    for (int q = 0; q < 4; q++) {
+        memset(&out[q], 0, sizeof out[q]);
+        phks_status st =
+            phks_db_query(db, p->queries[q], 10, out[q].hits, &out[q].count);
+        ck_assert_msg(st == PHKS_OK, "%s", phks_last_error_message());
+        query_matches_oracle(db, p->queries[q], 10, p->sigs, p->ids, p->names,
+                             p->n);
+    }
+    phks_db_close(db);
+    ck_assert_uint_eq(loads(false) - pack0, from_rows ? 0 : 1);
+    ck_assert_uint_eq(loads(true) - rows0, from_rows ? 1 : 0);
+}
+
+static void same_answers(const top10 a[4], const top10 b[4])
+{
+    for (int q = 0; q < 4; q++) {
+        ck_assert_uint_eq(a[q].count, b[q].count);
+        ck_assert_mem_eq(a[q].hits, b[q].hits, a[q].count * sizeof(phks_hit));
+    }
+}
+
+/* pack_state covers the rows, and counts them right. */
+static void pack_is_current(const char *path, bool current)
+{
+    sql_is(path,
+           "SELECT pack_changes = changes AND rows = (SELECT count(*) FROM "
+           "entries) FROM pack_state",
+           current ? "1" : "0");
+}
+
+/* Flips one byte of the chunk with the lowest (first) or highest start,
+ * at offset (from the end when negative). */
+static void flip_chunk_byte(const char *path, bool first, long offset)
+{
+    sqlite3 *raw;
+    ck_assert_int_eq(sqlite3_open(path, &raw), SQLITE_OK);
+    sqlite3_stmt *st;
+    ck_assert_int_eq(
+        sqlite3_prepare_v2(raw,
+                           first ? "SELECT start, data FROM packs ORDER BY "
+                                   "start LIMIT 1"
+                                 : "SELECT start, data FROM packs ORDER BY "
+                                   "start DESC LIMIT 1",
+                           -1, &st, NULL),
+        SQLITE_OK);
+    ck_assert_int_eq(sqlite3_step(st), SQLITE_ROW);
+    int64_t start = sqlite3_column_int64(st, 0);
+    int size = sqlite3_column_bytes(st, 1);
+    unsigned char *data = malloc((size_t)size);
+    memcpy(data, sqlite3_column_blob(st, 1), (size_t)size);
+    sqlite3_finalize(st);
+    long at = offset < 0 ? size + offset : offset;
+    ck_assert(at >= 0 && at < size);
+    data[at] ^= 0x10;
+    ck_assert_int_eq(sqlite3_prepare_v2(raw,
+                                        "UPDATE packs SET data = ?1 WHERE "
+                                        "start = ?2",
+                                        -1, &st, NULL),
+                     SQLITE_OK);
+    sqlite3_bind_blob(st, 1, data, size, SQLITE_TRANSIENT);
+    sqlite3_bind_int64(st, 2, start);
+    ck_assert_int_eq(sqlite3_step(st), SQLITE_DONE);
+    sqlite3_finalize(st);
+    ck_assert_int_eq(sqlite3_close(raw), SQLITE_OK);
+    free(data);
+}
+
+/* A fresh handle answers from the chunks exactly what it answers from the
+ * rows (forced by marking the chunks stale), read-only or not; a
+ * writable handle's rebuild makes them current again. */
+START_TEST(pack_answers_as_the_rows)
+{
+    char *dir = temp_dir(), *path = in_dir(dir, "pack.db");
+    packed_db p;
+    packed_db_make(&p, path, 700);
+    sql_is(path, "SELECT count(*) > 2 FROM packs", "1");
+    pack_is_current(path, true);
+    /* Removed entries leave their chunks, and the answers. */
+    phks_db *db;
+    ck_assert_int_eq(phks_db_open(path, 0, &db), PHKS_OK);
+    for (size_t i = 0; i < p.n; i += 7) {
+        ck_assert_int_eq(phks_db_remove(db, p.ids[i]), PHKS_OK);
+        p.ids[i] = 0;
+    }
+    phks_db_close(db);
+    pack_is_current(path, true);
+
+    top10 from_pack[4], from_rows[4], again[4];
+    fresh_answers(&p, path, 0, false, from_pack);
+    fresh_answers(&p, path, PHKS_DB_READONLY, false, again);
+    same_answers(from_pack, again);
+
+    free(sql(path, "UPDATE pack_state SET pack_changes = -1"));
+    fresh_answers(&p, path, PHKS_DB_READONLY, true, from_rows);
+    same_answers(from_pack, from_rows);
+    pack_is_current(path, false); /* read-only: not rewritten */
+    fresh_answers(&p, path, 0, true, again);
+    same_answers(from_pack, again);
+    pack_is_current(path, true); /* rebuilt */
+    fresh_answers(&p, path, PHKS_DB_READONLY, false, again);
+    same_answers(from_pack, again);
+
+    packed_db_free(&p);
+    free(path);
+    remove_dir(dir);
+}
+END_TEST
+
+/* Chunks that disagree with the rows are never used: each kind of damage
+ * or staleness makes a fresh handle decode the rows (and answer as
+ * before), a writable one rewrite the chunks. */
+#define PACK_DAMAGES 10
+START_TEST(stale_or_damaged_pack_is_rebuilt)
+{
+    char *dir = temp_dir(), *path = in_dir(dir, "pack.db");
+    packed_db p;
+    packed_db_make(&p, path, 400);
+    top10 want[4], got[4];
+    fresh_answers(&p, path, 0, false, want);
+    switch (_i) {
+    case 0: /* a row count that is not the rows' */
+        free(sql(path, "UPDATE pack_state SET rows = rows + 1"));
+        break;
+    case 1: /* chunks that cover other changes */
+        free(sql(path, "UPDATE pack_state SET pack_changes = changes - 1"));
+        break;
+    case 2: /* a vector value (checksum) */
+        flip_chunk_byte(path, true, 2000);
+        break;
+    case 3: /* the entry count of a header */
+        flip_chunk_byte(path, false, 8);
+        break;
+    case 4: /* the checksum itself */
+        flip_chunk_byte(path, false, -3);
+        break;
+    case 5: /* a chunk's entry count column */
+        free(sql(path, "UPDATE packs SET entries = entries + 1 WHERE start = "
+                       "(SELECT max(start) FROM packs)"));
+        break;
+    case 6: /* a chunk lost */
+        free(sql(path, "DELETE FROM packs WHERE start = "
+                       "(SELECT max(start) FROM packs)"));
+        break;
+    case 7: /* a chunk whose start is above its ids */
+        free(sql(path, "UPDATE packs SET start = start + 1 WHERE start = "
+                       "(SELECT min(start) FROM packs)"));
+        break;
+    case 8: /* rows removed by another program: the triggers count them */
+        free(sql(path, "DELETE FROM entries WHERE id IN (3, 200)"));
+        p.ids[2] = p.ids[199] = 0;
+        break;
+    default: /* the pack_state row gone */
+        free(sql(path, "DELETE FROM pack_state"));
+        break;
+    }
+    fresh_answers(&p, path, PHKS_DB_READONLY, true, got);
+    if (_i != 8)
+        same_answers(want, got);
+    memcpy(want, got, sizeof want);
+    fresh_answers(&p, path, 0, true, got);
+    same_answers(want, got);
+    pack_is_current(path, true);
+    fresh_answers(&p, path, 0, false, got);
+    same_answers(want, got);
+    packed_db_free(&p);
+    free(path);
+    remove_dir(dir);
+}
+END_TEST
+
+/* A format 1 file (made here by taking format 2's additions away, which
+ * leaves format 1's schema exactly) is read as it is by a read-only
+ * handle, and upgraded by a writable one: same answers throughout. */
+START_TEST(format_1_file_upgrades)
+{
+    char *dir = temp_dir(), *path = in_dir(dir, "old.db");
+    packed_db p;
+    packed_db_make(&p, path, 300);
+    top10 want[4], got[4];
+    fresh_answers(&p, path, 0, false, want);
+    static const char *const downgrade[] = {
+        "DROP TRIGGER entries_insert", "DROP TRIGGER entries_delete", "DROP TRIGGER entries_update",
+        "DROP TABLE packs", "DROP TABLE pack_state",
+        "UPDATE meta SET value = 1 WHERE key = 'format'",
+        "PRAGMA user_version = 1"};
+    for (size_t i = 0; i < sizeof downgrade / sizeof *downgrade; i++)
+        free(sql(path, downgrade[i]));
+    sql_is(path,
+           "SELECT group_concat(name) FROM (SELECT name FROM sqlite_master "
+           "ORDER BY name)",
+           "entries,meta,sqlite_autoindex_meta_1,sqlite_sequence");
+
+    fresh_answers(&p, path, PHKS_DB_READONLY, true, got);
+    same_answers(want, got);
+    sql_is(path, "PRAGMA user_version", "1");
+
+    phks_db *db;
+    ck_assert_int_eq(phks_db_open(path, 0, &db), PHKS_OK);
+    sql_is(path, "PRAGMA user_version", "2");
+    sql_is(path, "SELECT value FROM meta WHERE key = 'format'", "2");
+    sql_is(path, "SELECT rows || ' ' || pack_changes FROM pack_state",
+           "300 -1");
+    phks_db_close(db);
+    fresh_answers(&p, path, 0, true, got); /* fills the chunks */
+    same_answers(want, got);
+    pack_is_current(path, true);
+    fresh_answers(&p, path, PHKS_DB_READONLY, false, got);
+    same_answers(want, got);
+
+    /* Writes after the upgrade keep the chunks current. */
+    ck_assert_int_eq(phks_db_open(path, 0, &db), PHKS_OK);
+    ck_assert_int_eq(phks_db_remove(db, p.ids[10]), PHKS_OK);
+    p.ids[10] = 0;
+    phks_db_close(db);
+    pack_is_current(path, true);
+    fresh_answers(&p, path, 0, false, got);
+    packed_db_free(&p);
+    free(path);
+    remove_dir(dir);
+}
+END_TEST
+
+/* Adds (one, a batch, across chunk boundaries) and removals (first,
+ * last, middle entries, a whole chunk) keep the chunks current; a fresh
+ * handle then loads them and answers as the oracle. Stale chunks stay
+ * stale through writes, as do chunks whose tail is damaged. */
+START_TEST(writes_keep_the_pack_current)
+{
+    char *dir = temp_dir(), *path = in_dir(dir, "pack.db");
+    packed_db p;
+    packed_db_make(&p, path, 600);
+    size_t live = 300; /* the first 300 stay in the file */
+    phks_db *db;
+    ck_assert_int_eq(phks_db_open(path, 0, &db), PHKS_OK);
+    for (size_t i = live; i < p.n; i++) {
+        ck_assert_int_eq(phks_db_remove(db, p.ids[i]), PHKS_OK);
+        p.ids[i] = 0;
+    }
+    pack_is_current(path, true);
+    top10 got[4];
+    fresh_answers(&p, path, 0, false, got);
+
+    /* Removals: the first id, the last, one in the middle, then every
+     * entry of the first chunk. */
+    char *text = sql(path, "SELECT coalesce((SELECT min(start) FROM packs "
+                           "WHERE start > 1), 1000000)");
+    int64_t first_chunk_end = strtoll(text, NULL, 10);
+    free(text);
+    int64_t rm[] = {p.ids[0], p.ids[live - 1], p.ids[live / 2]};
+    for (size_t r = 0; r < 3; r++) {
+        ck_assert_int_eq(phks_db_remove(db, rm[r]), PHKS_OK);
+        for (size_t i = 0; i < p.n; i++)
+            if (p.ids[i] == rm[r])
+                p.ids[i] = 0;
+        pack_is_current(path, true);
+        fresh_answers(&p, path, 0, false, got);
+    }
+    for (size_t i = 0; i < p.n; i++)
+        if (p.ids[i] && p.ids[i] < first_chunk_end) {
+            ck_assert_int_eq(phks_db_remove(db, p.ids[i]), PHKS_OK);
+            p.ids[i] = 0;
+        }
+    pack_is_current(path, true);
+    sql_is(path, "SELECT count(*) FROM packs WHERE start = 1", "0");
+    fresh_answers(&p, path, 0, false, got);
+
+    /* Adds: one, then a batch spanning chunks, with this handle's cache
+     * loaded. */
+    query_matches_oracle(db, p.queries[0], 10, p.sigs, p.ids, p.names, p.n);
+    phks_db_entry e[300];
+    for (size_t i = 300; i < 600; i++)
+        e[i - 300] = (phks_db_entry){p.names[i], i % 3 ? "odd" : NULL,
+                                     p.sigs[i]};
+    ck_assert_int_eq(phks_db_add(db, e[0].name, e[0].label, e[0].signature,
+                                 &p.ids[300]),
+                     PHKS_OK);
+    pack_is_current(path, true);
+    fresh_answers(&p, path, 0, false, got);
+    ck_assert_int_eq(phks_db_add_batch(db, e + 1, 299, p.ids + 301), PHKS_OK);
+    pack_is_current(path, true);
+    fresh_answers(&p, path, 0, false, got);
+    query_matches_oracle(db, p.queries[1], 10, p.sigs, p.ids, p.names, p.n);
+    phks_db_close(db);
+
+    /* Stale chunks stay stale through writes. */
+    free(sql(path, "UPDATE pack_state SET pack_changes = -1"));
+    ck_assert_int_eq(phks_db_open(path, 0, &db), PHKS_OK);
+    ck_assert_int_eq(phks_db_remove(db, p.ids[599]), PHKS_OK);
+    p.ids[599] = 0;
+    phks_db_close(db);
+    pack_is_current(path, false);
+    fresh_answers(&p, path, 0, true, got);
+    pack_is_current(path, true);
+
+    /* A damaged last chunk: an add leaves the chunks stale. */
+    flip_chunk_byte(path, false, 100);
+    ck_assert_int_eq(phks_db_open(path, 0, &db), PHKS_OK);
+    ck_assert_int_eq(phks_db_remove(db, p.ids[598]), PHKS_OK);
+    p.ids[598] = 0;
+    phks_db_close(db);
+    pack_is_current(path, false);
+    fresh_answers(&p, path, PHKS_DB_READONLY, true, got);
+    fresh_answers(&p, path, 0, true, got);
+    fresh_answers(&p, path, 0, false, got);
+
+    packed_db_free(&p);
+    free(path);
+    remove_dir(dir);
+}
+END_TEST
+
 int main(void)
 {
     Suite *s = suite_create("db");
@@ -1323,6 +1728,10 @@ int main(void)
     tcase_add_test(c, concurrent_queries_agree);
     tcase_add_test(c, allocation_failures_are_clean);
     tcase_add_test(c, bad_arguments_are_refused);
+    tcase_add_test(c, pack_answers_as_the_rows);
+    tcase_add_loop_test(c, stale_or_damaged_pack_is_rebuilt, 0, PACK_DAMAGES);
+    tcase_add_test(c, format_1_file_upgrades);
+    tcase_add_test(c, writes_keep_the_pack_current);
     suite_add_tcase(s, c);
     return run_suite(s);
 }

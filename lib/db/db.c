@@ -20,25 +20,36 @@
  *
  * Cache refresh: PRAGMA data_version changes when another connection (this
  * process or another) commits. Each query compares it with the value read
- * when the cache was loaded and reloads on a change. This handle's own
- * writes leave data_version as it is and update the cache in place.
+ * when the cache was loaded (one prepared statement, no work per entry)
+ * and reloads on a change. This handle's own writes leave data_version as
+ * it is and update the cache in place.
+ *
+ * Format 2 keeps the packed copy in the file too (table packs, chunks
+ * laid out by db_pack.c): a reload reads it, and every write updates it
+ * in its own transaction; see "the packed chunks" below.
  */
 #include "db/db_cache.h"
 
 #include <limits.h>
 #include <pthread.h>
 #include <sqlite3.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <string.h>
 
 #define DB_APPLICATION_ID 0x50484B53 /* "PHKS" */
-#define DB_FORMAT 1
+#define DB_FORMAT 2
 #define DB_BUSY_MS 5000
+/* A chunk of the packs table closes at this many bytes: an add rewrites
+ * at most one chunk below it, a removal one chunk. */
+#define PACK_CHUNK_BYTES (512 * 1024)
 
 struct phks_db {
     sqlite3 *conn;
     char *path;          /* as given, for messages */
     bool readonly;
+    int format;          /* the file's user_version: 1 (read-only) or 2 */
+    bool use_pack;       /* format 2 and a file: keep the packs table    */
     pthread_mutex_t lock;
     pthread_rwlock_t cache_lock;
     bool lock_ready, cache_lock_ready;
@@ -281,12 +292,39 @@ static phks_status check_header(phks_db *db, const header *h)
     return PHKS_OK;
 }
 
+/* Format 2's additions to format 1: the packed chunks, and the state
+ * that tells whether they cover the rows (docs/formats.md). The triggers
+ * count every change any program makes to the entries. */
+#define SCHEMA_PACKS                                                      \
+    "CREATE TABLE packs (start INTEGER PRIMARY KEY, entries INTEGER NOT"   \
+    " NULL, vectors INTEGER NOT NULL, text INTEGER NOT NULL,"              \
+    " data BLOB NOT NULL);"                                                \
+    "CREATE TABLE pack_state (id INTEGER PRIMARY KEY CHECK (id = 1),"      \
+    " rows INTEGER NOT NULL, changes INTEGER NOT NULL,"                    \
+    " pack_changes INTEGER NOT NULL);"                                     \
+    "CREATE TRIGGER entries_insert AFTER INSERT ON entries BEGIN"          \
+    " UPDATE pack_state SET rows = rows + 1, changes = changes + 1; END;"  \
+    "CREATE TRIGGER entries_delete AFTER DELETE ON entries BEGIN"          \
+    " UPDATE pack_state SET rows = rows - 1, changes = changes + 1; END;"  \
+    "CREATE TRIGGER entries_update AFTER UPDATE ON entries BEGIN"          \
+    " UPDATE pack_state SET changes = changes + 1; END;"
+
 static const char schema[] =
     "PRAGMA application_id = 1346915155;" /* DB_APPLICATION_ID */
-    "PRAGMA user_version = 1;"            /* DB_FORMAT */
+    "PRAGMA user_version = 2;"            /* DB_FORMAT */
     "CREATE TABLE meta (key TEXT PRIMARY KEY NOT NULL, value);"
     "CREATE TABLE entries (id INTEGER PRIMARY KEY AUTOINCREMENT,"
-    " name TEXT NOT NULL, label TEXT, signature BLOB NOT NULL);";
+    " name TEXT NOT NULL, label TEXT, signature BLOB NOT NULL);"
+    SCHEMA_PACKS
+    "INSERT INTO pack_state VALUES (1, 0, 0, 0);";
+
+/* Format 1 to 2 in one write transaction: the packs table starts stale
+ * (pack_changes -1), and the first load of a writable handle fills it. */
+static const char upgrade_sql[] =
+    SCHEMA_PACKS
+    "INSERT INTO pack_state SELECT 1, count(*), 0, -1 FROM entries;"
+    "UPDATE meta SET value = 2 WHERE key = 'format';"
+    "PRAGMA user_version = 2;";
 
 /* Writes the schema into an empty file, in one transaction; another
  * process may have done it since the file was seen empty. */
@@ -323,23 +361,47 @@ static phks_status create_schema(phks_db *db)
     return st;
 }
 
-/* The meta format must match the header; the entries table must have our
- * columns; the options are read if set. */
+/* A format 1 file opened writable becomes format 2, in one transaction
+ * (another process may have done it since the header was read). */
+static phks_status upgrade(phks_db *db)
+{
+    header h;
+    phks_status st = begin(db, true);
+    if (st != PHKS_OK)
+        return st;
+    st = read_header(db, &h);
+    if (st == PHKS_OK && (st = check_header(db, &h)) == PHKS_OK &&
+        h.user_version == 1)
+        st = exec(db, upgrade_sql, "cannot upgrade the file to format 2");
+    if (st == PHKS_OK)
+        return commit(db);
+    rollback(db);
+    return st;
+}
+
+/* The meta format must match the header; the entries table (and in
+ * format 2 the pack tables) must have our columns; the options are read
+ * if set. */
 static phks_status check_tables(phks_db *db)
 {
     int64_t format;
     phks_status st =
         query_int(db, "SELECT value FROM meta WHERE key = 'format'", &format);
-    if (st == PHKS_OK && format != DB_FORMAT)
+    if (st == PHKS_OK && format != db->format)
         st = phks__fail(PHKS_ERROR_CORRUPT,
                        "%s: meta 'format' %lld does not match the header",
                        db->path, (long long)format);
-    sqlite3_stmt *stmt;
-    if (st == PHKS_OK)
-        st = prepare(db, "SELECT id, name, label, signature FROM entries",
-                     &stmt);
-    if (st == PHKS_OK)
-        sqlite3_finalize(stmt);
+    static const char *const columns[] = {
+        "SELECT id, name, label, signature FROM entries",
+        "SELECT start, entries, vectors, text, data FROM packs",
+        "SELECT id, rows, changes, pack_changes FROM pack_state",
+    };
+    for (int i = 0; i < (db->format >= 2 ? 3 : 1) && st == PHKS_OK; i++) {
+        sqlite3_stmt *stmt;
+        st = prepare(db, columns[i], &stmt);
+        if (st == PHKS_OK)
+            sqlite3_finalize(stmt);
+    }
     if (st == PHKS_OK)
         st = read_options(db);
     return st;
@@ -359,15 +421,29 @@ static phks_status setup(phks_db *db, bool memory)
                          db->path);
     if (!empty && (st = check_header(db, &h)) != PHKS_OK)
         return st;
+    db->format = empty ? DB_FORMAT : (int)h.user_version;
+    /* A new file gets 64 KB pages: the packed chunks are then read in a
+     * sixteenth of the page reads 4 KB pages take (docs/benchmarks.md).
+     * SQLite ignores this on a file that already has pages. */
+    if (empty && !memory && !db->readonly)
+        st = exec(db, "PRAGMA page_size = 65536", "cannot set the page size");
     /* Only a file known to be ours (or empty) is switched to WAL. The mode
      * is stored in the file; where WAL is impossible SQLite keeps its
      * rollback journal, which is as safe, only less concurrent. */
-    if (!db->readonly && !memory)
+    if (st == PHKS_OK && !db->readonly && !memory)
         st = exec(db, "PRAGMA journal_mode = WAL", "cannot set WAL mode");
     if (st == PHKS_OK)
         st = exec(db, "PRAGMA synchronous = FULL", "cannot set synchronous");
-    if (st == PHKS_OK && empty)
-        st = create_schema(db);
+    if (st == PHKS_OK && empty && (st = create_schema(db)) == PHKS_OK &&
+        (st = read_header(db, &h)) == PHKS_OK)
+        db->format = (int)h.user_version; /* another process's, maybe */
+    if (st == PHKS_OK && !db->readonly && db->format < DB_FORMAT) {
+        st = upgrade(db);
+        db->format = DB_FORMAT;
+    }
+    /* A private database in memory is loaded once from its rows and never
+     * reopened: the chunks would only cost its writes. */
+    db->use_pack = db->format >= 2 && !memory;
     if (st == PHKS_OK)
         st = check_tables(db);
     if (st == PHKS_OK)
@@ -502,22 +578,401 @@ static void drop_cache(phks_db *db)
     db->cache_loaded = false;
 }
 
-/* Reads every entry into a new cache in one read transaction. Called with
- * lock held; takes cache_lock. */
-static phks_status reload(phks_db *db)
+/* ---- the packed chunks (format 2; docs/formats.md)
+ *
+ * The packs table holds the cache's entries in chunks, each covering the
+ * ids from its start up to the next chunk's start. pack_state counts the
+ * rows and every change made to them (by triggers, whoever writes), and
+ * records in pack_changes the count of changes the chunks cover: they
+ * are used only when it equals changes and every chunk's checksum and
+ * layout hold, else the cache is rebuilt from the rows and, on a
+ * writable handle, the chunks rewritten from it. Each write of this
+ * library updates the chunks in its own transaction. */
+
+typedef struct pack_state {
+    bool present;
+    int64_t rows, changes, pack_changes;
+} pack_state;
+
+static phks_status read_pack_state(phks_db *db, pack_state *ps)
 {
-    pthread_rwlock_wrlock(&db->cache_lock);
-    drop_cache(db);
-    sqlite3_stmt *stmt = NULL;
-    int64_t version = 0;
-    phks_status st = begin(db, false);
-    if (st == PHKS_OK && !db->has_options)
-        st = read_options(db);
+    memset(ps, 0, sizeof *ps);
+    sqlite3_stmt *stmt;
+    phks_status st = prepare(
+        db, "SELECT rows, changes, pack_changes FROM pack_state WHERE id = 1",
+        &stmt);
+    if (st != PHKS_OK)
+        return st;
+    int rc = sqlite3_step(stmt);
+    if (rc == SQLITE_ROW) {
+        ps->present = true;
+        ps->rows = sqlite3_column_int64(stmt, 0);
+        ps->changes = sqlite3_column_int64(stmt, 1);
+        ps->pack_changes = sqlite3_column_int64(stmt, 2);
+    } else if (rc != SQLITE_DONE) {
+        st = sql_fail(db, rc, "cannot read pack_state");
+    }
+    sqlite3_finalize(stmt);
+    return st;
+}
+
+static bool pack_current(const pack_state *ps)
+{
+    return ps->present && ps->pack_changes == ps->changes && ps->rows >= 0;
+}
+
+/* Inside a write transaction, after the chunks were brought up to date:
+ * they now cover every change counted. */
+static phks_status mark_pack_current(phks_db *db, int64_t rows, bool set_rows)
+{
+    sqlite3_stmt *stmt;
+    phks_status st = prepare(
+        db,
+        set_rows ? "INSERT OR REPLACE INTO pack_state (id, rows, changes,"
+                   " pack_changes) SELECT 1, ?1, coalesce(max(changes), 0),"
+                   " coalesce(max(changes), 0) FROM pack_state"
+                 : "UPDATE pack_state SET pack_changes = changes",
+        &stmt);
+    if (st != PHKS_OK)
+        return st;
+    sqlite3_bind_int64(stmt, 1, rows);
+    int rc = sqlite3_step(stmt);
+    if (rc != SQLITE_DONE)
+        st = sql_fail(db, rc, "cannot write pack_state");
+    sqlite3_finalize(stmt);
+    return st;
+}
+
+/* Writes the live entries of slots [begin, end) of c as the chunk that
+ * starts at id start (replacing one that did). */
+static phks_status write_chunk(phks_db *db, int64_t start,
+                               const phks__db_cache *c, size_t begin,
+                               size_t end)
+{
+    unsigned char *blob;
+    size_t size, entries;
+    phks_status st = phks__db_pack_encode(c, begin, end, &blob, &size, &entries);
+    if (st == PHKS_ERROR_OUT_OF_MEMORY)
+        return phks__fail_oom("database pack");
+    if (st != PHKS_OK) /* no live entry: no chunk */
+        return PHKS_OK;
+    if (size > INT_MAX) {
+        phks__free(blob);
+        return phks__fail(PHKS_ERROR_TOO_LARGE, "%s: a pack chunk of %zu bytes",
+                         db->path, size);
+    }
+    size_t vectors = 0, text = 0;
+    for (size_t e = begin; e < end; e++)
+        if (c->features[e]) {
+            vectors += phks__db_padded(c->features[e]) * c->length;
+            const char *t = c->text + c->text_at[e];
+            size_t n = strlen(t) + 1;
+            text += n + strlen(t + n) + 1;
+        }
+    sqlite3_stmt *stmt;
+    st = prepare(db,
+                 "INSERT OR REPLACE INTO packs (start, entries, vectors, text,"
+                 " data) VALUES (?1, ?2, ?3, ?4, ?5)",
+                 &stmt);
+    if (st == PHKS_OK) {
+        sqlite3_bind_int64(stmt, 1, start);
+        sqlite3_bind_int64(stmt, 2, (int64_t)entries);
+        sqlite3_bind_int64(stmt, 3, (int64_t)vectors);
+        sqlite3_bind_int64(stmt, 4, (int64_t)text);
+        int rc = sqlite3_bind_blob(stmt, 5, blob, (int)size, SQLITE_STATIC);
+        if (rc == SQLITE_OK)
+            rc = sqlite3_step(stmt);
+        if (rc != SQLITE_DONE)
+            st = sql_fail(db, rc, "cannot write a pack chunk");
+        sqlite3_finalize(stmt);
+    }
+    phks__free(blob);
+    return st;
+}
+
+/* Every live entry of c as chunks of about PACK_CHUNK_BYTES, replacing
+ * all chunks. */
+static phks_status write_all_chunks(phks_db *db, const phks__db_cache *c)
+{
+    phks_status st = exec(db, "DELETE FROM packs", "cannot clear the packs");
+    size_t begin = 0, bytes = 0;
+    for (size_t e = 0; e <= c->count && st == PHKS_OK; e++) {
+        if (e < c->count && !c->features[e])
+            continue;
+        if (e < c->count)
+            bytes += 12 + 8 * phks__db_padded(c->features[e]) * c->length + 32;
+        if (bytes && (bytes >= PACK_CHUNK_BYTES || e == c->count)) {
+            size_t end = e < c->count ? e + 1 : e;
+            while (!c->features[begin]) /* a live slot lies below end */
+                begin++;
+            st = write_chunk(db, c->ids[begin], c, begin, end);
+            begin = end;
+            bytes = 0;
+        }
+    }
+    return st;
+}
+
+static phks_status read_memory(void *ctx, void *dst, size_t n, size_t offset)
+{
+    memcpy(dst, (const unsigned char *)ctx + offset, n);
+    return PHKS_OK;
+}
+
+/* The chunk holding id (the one with the highest start at most id) into
+ * the empty cache t. *found false when there is none; PHKS_ERROR_CORRUPT
+ * without a message when it is damaged. */
+static phks_status read_chunk(phks_db *db, int64_t id, phks__db_cache *t,
+                              int64_t *start, bool *found)
+{
+    *found = false;
+    sqlite3_stmt *stmt;
+    phks_status st = prepare(db,
+                             "SELECT start, data FROM packs WHERE start <= ?1"
+                             " ORDER BY start DESC LIMIT 1",
+                             &stmt);
+    if (st != PHKS_OK)
+        return st;
+    sqlite3_bind_int64(stmt, 1, id);
+    int rc = sqlite3_step(stmt);
+    if (rc == SQLITE_ROW) {
+        *found = true;
+        *start = sqlite3_column_int64(stmt, 0);
+        const void *blob = sqlite3_column_blob(stmt, 1);
+        int size = sqlite3_column_bytes(stmt, 1);
+        if (!blob && sqlite3_errcode(db->conn) == SQLITE_NOMEM)
+            st = phks__fail_oom("database pack");
+        else if (!blob || size <= 0)
+            st = PHKS_ERROR_CORRUPT;
+        else
+            st = phks__db_pack_decode(t, *start, (size_t)size, read_memory,
+                                     (void *)blob);
+        if (st == PHKS_ERROR_OUT_OF_MEMORY)
+            st = phks__fail_oom("database pack");
+    } else if (rc != SQLITE_DONE) {
+        st = sql_fail(db, rc, "cannot read a pack chunk");
+    }
+    sqlite3_finalize(stmt);
+    return st;
+}
+
+/* Inside the write transaction that added entries with ids (ascending,
+ * above every other): appends them to the last chunk while it is small,
+ * then to new chunks. *kept false when the chunks turn out damaged: they
+ * are then left stale, to be rebuilt. */
+static phks_status pack_append(phks_db *db, const phks_db_entry *entries,
+                               const int64_t *ids, size_t count, bool *kept)
+{
+    phks__db_cache t;
+    phks__db_cache_init(&t);
+    int64_t start = 0;
+    bool found;
+    *kept = true;
+    phks_status st = read_chunk(db, INT64_MAX, &t, &start, &found);
+    if (st == PHKS_ERROR_CORRUPT) {
+        *kept = false;
+        st = PHKS_OK;
+    }
+    if (st != PHKS_OK || !*kept) {
+        phks__db_cache_release(&t);
+        return st;
+    }
+    if (!found || phks__db_pack_bytes(&t) >= PACK_CHUNK_BYTES) {
+        phks__db_cache_release(&t);
+        start = ids[0];
+    }
+    for (size_t i = 0; i < count && st == PHKS_OK; i++) {
+        if (t.count && phks__db_pack_bytes(&t) >= PACK_CHUNK_BYTES) {
+            st = write_chunk(db, start, &t, 0, t.count);
+            phks__db_cache_release(&t);
+            start = ids[i];
+        }
+        if (st != PHKS_OK)
+            break;
+        st = phks__db_cache_append(&t, ids[i], entries[i].name,
+                                  entries[i].label, entries[i].signature);
+        if (st == PHKS_ERROR_OUT_OF_MEMORY)
+            st = phks__fail_oom("database pack");
+        else if (st != PHKS_OK) { /* out of order or another length */
+            *kept = false;
+            st = PHKS_OK;
+            break;
+        }
+    }
+    if (st == PHKS_OK && *kept && t.count)
+        st = write_chunk(db, start, &t, 0, t.count);
+    phks__db_cache_release(&t);
+    return st;
+}
+
+/* Inside the write transaction that removed entry id. */
+static phks_status pack_remove(phks_db *db, int64_t id, bool *kept)
+{
+    phks__db_cache t;
+    phks__db_cache_init(&t);
+    int64_t start = 0;
+    bool found;
+    phks_status st = read_chunk(db, id, &t, &start, &found);
+    size_t lo = 0, hi = t.count;
+    while (lo < hi) {
+        size_t mid = lo + (hi - lo) / 2;
+        if (t.ids[mid] < id)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    *kept = st == PHKS_OK && found && lo < t.count && t.ids[lo] == id;
+    if (st == PHKS_ERROR_CORRUPT)
+        st = PHKS_OK;
+    if (st == PHKS_OK && *kept) {
+        phks__db_cache_remove(&t, id);
+        if (t.count > t.dead) {
+            st = write_chunk(db, start, &t, 0, t.count);
+        } else {
+            sqlite3_stmt *stmt;
+            st = prepare(db, "DELETE FROM packs WHERE start = ?1", &stmt);
+            if (st == PHKS_OK) {
+                sqlite3_bind_int64(stmt, 1, start);
+                int rc = sqlite3_step(stmt);
+                if (rc != SQLITE_DONE)
+                    st = sql_fail(db, rc, "cannot remove a pack chunk");
+                sqlite3_finalize(stmt);
+            }
+        }
+    }
+    phks__db_cache_release(&t);
+    return st;
+}
+
+typedef struct blob_reader {
+    phks_db *db;
+    sqlite3_blob *blob;
+} blob_reader;
+
+static phks_status read_blob(void *ctx, void *dst, size_t n, size_t offset)
+{
+    blob_reader *r = ctx;
+    if (n == 0)
+        return PHKS_OK;
+    if (n > INT_MAX || offset > INT_MAX)
+        return PHKS_ERROR_CORRUPT;
+    int rc = sqlite3_blob_read(r->blob, dst, (int)n, (int)offset);
+    return rc == SQLITE_OK ? PHKS_OK
+                           : sql_fail(r->db, rc, "cannot read a pack chunk");
+}
+
+/* Inside a read transaction, into the empty cache: every chunk, if they
+ * cover the rows pack_state counts (ps, current). PHKS_ERROR_CORRUPT
+ * without a message when they do not, or one is damaged: the caller
+ * rebuilds from the rows. */
+static phks_status load_pack(phks_db *db, const pack_state *ps)
+{
+    sqlite3_stmt *stmt;
+    phks_status st = prepare(db,
+                             "SELECT count(*), total(entries), total(vectors),"
+                             " total(text), (SELECT max(id) FROM entries)"
+                             " FROM packs",
+                             &stmt);
+    if (st != PHKS_OK)
+        return st;
+    int rc = sqlite3_step(stmt);
+    double entries = 0, vectors = 0, text = 0;
+    int64_t max_id = 0;
+    if (rc == SQLITE_ROW) {
+        entries = sqlite3_column_double(stmt, 1);
+        vectors = sqlite3_column_double(stmt, 2);
+        text = sqlite3_column_double(stmt, 3);
+        max_id = sqlite3_column_int64(stmt, 4);
+    } else {
+        st = sql_fail(db, rc == SQLITE_DONE ? SQLITE_CORRUPT : rc,
+                      "cannot read the packs");
+    }
+    sqlite3_finalize(stmt);
+    if (st != PHKS_OK)
+        return st;
+    /* The totals only size the cache (the chunks are checked one by one):
+     * when that much memory is not there, the chunks' reads find out
+     * whether it was needed. */
+    if (entries != (double)ps->rows || (ps->rows && !db->has_options))
+        return PHKS_ERROR_CORRUPT;
+    if (vectors >= 0 && text >= 0 && vectors < 1e15 && text < 1e15)
+        (void)phks__db_cache_reserve(&db->cache, (size_t)entries,
+                                    (size_t)vectors, (size_t)text);
+    if ((st = prepare(db, "SELECT start, entries FROM packs ORDER BY start",
+                      &stmt)) != PHKS_OK)
+        return st;
+    blob_reader r = {db, NULL};
+    while (st == PHKS_OK && (rc = sqlite3_step(stmt)) == SQLITE_ROW) {
+        int64_t start = sqlite3_column_int64(stmt, 0);
+        size_t before = db->cache.count;
+        rc = r.blob ? sqlite3_blob_reopen(r.blob, start)
+                    : sqlite3_blob_open(db->conn, "main", "packs", "data",
+                                        start, 0, &r.blob);
+        if (rc != SQLITE_OK) {
+            st = sql_status(rc) == PHKS_ERROR_CORRUPT
+                     ? PHKS_ERROR_CORRUPT
+                     : sql_fail(db, rc, "cannot open a pack chunk");
+            break;
+        }
+        st = phks__db_pack_decode(&db->cache, start,
+                                 (size_t)sqlite3_blob_bytes(r.blob), read_blob,
+                                 &r);
+        if (st == PHKS_ERROR_OUT_OF_MEMORY)
+            st = phks__fail_oom("database cache");
+        else if (st == PHKS_OK &&
+                 (db->cache.count - before !=
+                      (size_t)sqlite3_column_int64(stmt, 1) ||
+                  db->cache.length != (size_t)db->options.scale_count))
+            st = PHKS_ERROR_CORRUPT;
+    }
+    if (st == PHKS_OK && rc != SQLITE_DONE)
+        st = sql_status(rc) == PHKS_ERROR_CORRUPT
+                 ? PHKS_ERROR_CORRUPT
+                 : sql_fail(db, rc, "cannot read the packs");
+    sqlite3_blob_close(r.blob);
+    sqlite3_finalize(stmt);
+    /* Every row, and no other: as many entries as rows counted, and the
+     * last id the highest row's. */
+    if (st == PHKS_OK &&
+        (db->cache.count != (size_t)ps->rows ||
+         (db->cache.count ? db->cache.ids[db->cache.count - 1] : 0) != max_id))
+        st = PHKS_ERROR_CORRUPT;
+    return st;
+}
+
+/* After a rebuild from the rows, on a writable handle: the chunks from
+ * the new cache, if no other connection changed the rows since (changes
+ * is what pack_state counted then). Failures only leave the chunks stale
+ * for the next load. Called with lock held. */
+static void persist_pack(phks_db *db, int64_t changes)
+{
+    if (begin(db, true) != PHKS_OK)
+        return;
+    pack_state ps;
+    phks_status st = read_pack_state(db, &ps);
+    if (st == PHKS_OK && ps.changes == changes)
+        st = write_all_chunks(db, &db->cache);
+    else
+        st = PHKS_ERROR_IO;
     if (st == PHKS_OK)
-        st = prepare(db,
-                     "SELECT id, name, label, signature FROM entries "
-                     "ORDER BY id",
-                     &stmt);
+        st = mark_pack_current(db, (int64_t)(db->cache.count - db->cache.dead),
+                               true);
+    if (st == PHKS_OK)
+        commit(db);
+    else
+        rollback(db);
+}
+
+/* Inside a read transaction, into the empty cache: every row, decoded. */
+static phks_status load_rows(phks_db *db)
+{
+    sqlite3_stmt *stmt;
+    phks_status st = prepare(db,
+                             "SELECT id, name, label, signature FROM entries "
+                             "ORDER BY id",
+                             &stmt);
+    if (st != PHKS_OK)
+        return st;
     while (st == PHKS_OK) {
         int rc = sqlite3_step(stmt);
         if (rc == SQLITE_DONE)
@@ -556,6 +1011,45 @@ static phks_status reload(phks_db *db)
         phks_signature_free(sig);
     }
     sqlite3_finalize(stmt);
+    return st;
+}
+
+/* Loads that read the chunks, and loads that decoded the rows. */
+static atomic_ulong loads_from_pack, loads_from_rows;
+
+void phks__db_load_counts(unsigned long *from_pack, unsigned long *from_rows)
+{
+    *from_pack = atomic_load(&loads_from_pack);
+    *from_rows = atomic_load(&loads_from_rows);
+}
+
+/* Reads every entry into a new cache in one read transaction: from the
+ * packed chunks when they are current, else from the rows. Called with
+ * lock held; takes cache_lock. */
+static phks_status reload(phks_db *db)
+{
+    pthread_rwlock_wrlock(&db->cache_lock);
+    drop_cache(db);
+    int64_t version = 0;
+    pack_state ps = {0};
+    bool from_rows = true, rebuilt = false;
+    phks_status st = begin(db, false);
+    if (st == PHKS_OK && !db->has_options)
+        st = read_options(db);
+    if (st == PHKS_OK && db->use_pack)
+        st = read_pack_state(db, &ps);
+    if (st == PHKS_OK && db->use_pack && pack_current(&ps)) {
+        st = load_pack(db, &ps);
+        from_rows = st == PHKS_ERROR_CORRUPT;
+        if (from_rows) {
+            drop_cache(db);
+            st = PHKS_OK;
+        }
+    }
+    if (st == PHKS_OK && from_rows) {
+        rebuilt = db->use_pack && !db->readonly;
+        st = load_rows(db);
+    }
     /* Read inside the transaction: the version of the state just read. */
     if (st == PHKS_OK)
         st = data_version(db, &version);
@@ -564,11 +1058,16 @@ static phks_status reload(phks_db *db)
     if (st == PHKS_OK) {
         db->cache_loaded = true;
         db->cache_version = version;
+        atomic_fetch_add(from_rows ? &loads_from_rows : &loads_from_pack, 1);
     } else {
         rollback(db);
         drop_cache(db);
     }
     pthread_rwlock_unlock(&db->cache_lock);
+    /* No writer can change the cache while lock is held: it is read
+     * without cache_lock, and queries may scan it meanwhile. */
+    if (st == PHKS_OK && rebuilt)
+        persist_pack(db, ps.changes);
     return st;
 }
 
@@ -745,9 +1244,19 @@ static phks_status add_entries(phks_db *db, const char *fn, bool batch,
                        "the database's (%s)",
                        fn, detail);
     if (st == PHKS_OK && (st = begin(db, true)) == PHKS_OK) {
+        pack_state ps = {0};
         st = settle_options(db, fn, mine, &set);
+        if (st == PHKS_OK && db->use_pack)
+            st = read_pack_state(db, &ps);
         if (st == PHKS_OK)
             st = insert_all(db, fn, batch, entries, count, new_ids);
+        /* Chunks that were current before stay so; stale ones stay
+         * stale (the triggers counted these rows). */
+        bool kept = false;
+        if (st == PHKS_OK && db->use_pack && pack_current(&ps))
+            st = pack_append(db, entries, new_ids, count, &kept);
+        if (st == PHKS_OK && kept)
+            st = mark_pack_current(db, 0, false);
         st = st == PHKS_OK ? commit(db) : (rollback(db), st);
     }
     if (st == PHKS_OK) {
@@ -795,9 +1304,14 @@ phks_status phks_db_remove(phks_db *db, int64_t id)
                          "phks_db_remove: %s is open read-only", db->path);
     pthread_mutex_lock(&db->lock);
     sqlite3_stmt *stmt;
-    /* One statement in autocommit mode: one transaction. */
-    phks_status st = prepare(db, "DELETE FROM entries WHERE id = ?1", &stmt);
-    if (st == PHKS_OK) {
+    pack_state ps = {0};
+    /* The row and its chunk in one transaction. */
+    phks_status st = begin(db, true);
+    if (st == PHKS_OK && db->use_pack)
+        st = read_pack_state(db, &ps);
+    if (st == PHKS_OK &&
+        (st = prepare(db, "DELETE FROM entries WHERE id = ?1", &stmt)) ==
+            PHKS_OK) {
         sqlite3_bind_int64(stmt, 1, id);
         int rc = sqlite3_step(stmt);
         if (rc != SQLITE_DONE)
@@ -808,6 +1322,15 @@ phks_status phks_db_remove(phks_db *db, int64_t id)
                            (long long)id);
         sqlite3_finalize(stmt);
     }
+    bool kept = false;
+    if (st == PHKS_OK && db->use_pack && pack_current(&ps))
+        st = pack_remove(db, id, &kept);
+    if (st == PHKS_OK && kept)
+        st = mark_pack_current(db, 0, false);
+    if (st == PHKS_OK)
+        st = commit(db);
+    else if (db->conn)
+        rollback(db);
     if (st == PHKS_OK && db->cache_loaded) {
         pthread_rwlock_wrlock(&db->cache_lock);
         phks__db_cache_remove(&db->cache, id);

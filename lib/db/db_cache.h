@@ -50,4 +50,35 @@ phks_status phks__db_cache_query(const phks__db_cache *cache,
                                 const phks_signature *query, size_t k,
                                 phks_hit *hits, size_t *count);
 
+/* Makes room for `slots` more entries, `doubles` more vector values and
+ * `text` more text bytes (PHKS_ERROR_OUT_OF_MEMORY; nothing is lost). */
+phks_status phks__db_cache_reserve(phks__db_cache *cache, size_t slots,
+                                  size_t doubles, size_t text);
+
+/* ---- packed chunks (db_pack.c; docs/formats.md, "Packed chunks") */
+/* The persisted form of a run of cache entries. */
+/* Reads n bytes at offset of a chunk into dst; a status on failure. */
+typedef phks_status (*phks__db_pack_read_fn)(void *ctx, void *dst, size_t n,
+                                            size_t offset);
+/* The chunk of the live entries of slots [begin, end) into a new *blob
+ * (phks__free) of *size bytes holding *entries entries. Errors:
+ * PHKS_ERROR_INVALID_ARGUMENT (no live entry), PHKS_ERROR_OUT_OF_MEMORY. */
+phks_status phks__db_pack_encode(const phks__db_cache *cache, size_t begin,
+                                size_t end, unsigned char **blob,
+                                size_t *size, size_t *entries);
+/* About the bytes the chunk of every slot of cache would take. */
+size_t phks__db_pack_bytes(const phks__db_cache *cache);
+/* Appends the entries of a chunk of `size` bytes, read through read, to
+ * cache: their ids must be at least start and above every id held. On
+ * PHKS_ERROR_CORRUPT (checksum, layout or order wrong; no message set),
+ * PHKS_ERROR_OUT_OF_MEMORY (no message) or the reader's status, the
+ * cache holds what it held. */
+phks_status phks__db_pack_decode(phks__db_cache *cache, int64_t start,
+                                size_t size, phks__db_pack_read_fn read,
+                                void *ctx);
+
+/* For the tests (db.c): how many loads of a handle's cache, since the
+ * process started, read the packed chunks, and how many decoded the rows. */
+void phks__db_load_counts(unsigned long *from_pack, unsigned long *from_rows);
+
 #endif /* PHKS_DB_CACHE_H */
