@@ -731,9 +731,11 @@ typedef struct phks_hit {
 /* The k entries with the lowest phks_score against query, best first; ties
  * go to the lower id. hits needs room for k records; *count gets
  * min(k, entries). The scores are exactly phks_score's. The first query
- * of a handle, and the first after another connection committed, reads
- * every entry into the packed copy (far slower than a scan on a large
- * database: docs/benchmarks.md); the others only scan it. Errors:
+ * of a handle, and the first after another connection committed, loads
+ * the packed copy the file keeps beside the entries (a read of its chunks,
+ * slower than a scan on a large database: docs/benchmarks.md; a file of an
+ * older format, opened read-only, decodes every entry instead); the others
+ * only scan it. Errors:
  * PHKS_ERROR_INVALID_ARGUMENT (NULL, k = 0), PHKS_ERROR_INCOMPATIBLE (query
  * made with other options than the database's), PHKS_ERROR_IO,
  * PHKS_ERROR_OUT_OF_MEMORY. Many threads may query one handle at once. */

@@ -409,11 +409,11 @@ run "$phks" --progress db add p.db a.off b.off -j 1; expect_rc 0 \
     "db add --progress"
 expect_err "^phks: 2/2 files$"
 run "$phks" db info d.db; expect_rc 0 "db info"
-expect_out "^path *d.db$"; expect_out "^format *1$"; expect_out "^entries *3$"
+expect_out "^path *d.db$"; expect_out "^format *2$"; expect_out "^entries *3$"
 expect_out "^options *operator random-walk, .*HKS scaling local-area"
 run "$phks" db info plain.db --json; expect_rc 0 "db info --json"
 $py -c 'import json,sys; d=json.load(sys.stdin)
-assert d["path"] == "plain.db" and d["format"] == 1 and d["entries"] == 2
+assert d["path"] == "plain.db" and d["format"] == 2 and d["entries"] == 2
 o = d["options"]
 assert o["hks_scaling"] == "none" and o["operator"] == "random-walk"
 assert o["feature_count"] == 15 and len(o["scales"]) == 15 and o["tau"] == 0.0002
