@@ -210,6 +210,14 @@ if not args.skip_shards:
         assert res == single_results, "shard_topk differs"
     report.append(("coordinator + %d shards (shard_topk, LIMIT per shard)"
                    % args.shards, med, best))
+    # The shards' scans at the same time (postgres_fdw's async Append).
+    coord.sql("".join("ALTER SERVER shard%d OPTIONS (ADD async_capable "
+                      "'true');" % i for i in range(args.shards)))
+    med, best, res = timed(coord, "shapes", "", shard_topk=True)
+    if single_results is not None:
+        assert res == single_results, "async shard_topk differs"
+    report.append(("coordinator + %d shards (shard_topk, async_capable)"
+                   % args.shards, med, best))
     for c in shards + [coord]:
         c.stop()
 

@@ -131,6 +131,7 @@ for bad, what, expect in [
         ("50484b53" + "00" * 80, "magic only", "phks_signature")]:
     err = pg.error("SELECT '%s'::phks_signature;" % bad)
     check("ERROR" in err and expect in err, "bad blob (%s): %s" % (what, err))
+    print("bad blob (%s): %s" % (what, err.strip().splitlines()[0]))
     err = pg.error("SELECT phks_feature_count(decode('%s', 'hex')::"
                    "phks_signature);" % bad) if what not in (
         "not hex", "odd hex") else "ERROR phks_signature"
@@ -161,6 +162,7 @@ other = pgutil.signatures(phks, meshes[:1], os.path.join(work, "sigs-" +
 err = pg.error("SELECT id FROM shapes ORDER BY sig <~> '%s', id LIMIT 3;"
                % pgutil.hexfile(other))
 check("hks_scaling" in err, "mismatched options name the option: %s" % err)
+print("mismatch: " + err.strip().splitlines()[0])
 err = pg.error("SELECT phks_score('%s', sig) FROM shapes;"
                % pgutil.hexfile(other))
 check("hks_scaling" in err, "mismatched options (first argument): %s" % err)
