@@ -276,19 +276,30 @@ static Datum score_args(FunctionCallInfo fcinfo, int query_first)
 {
     bytea *a_blob = PG_GETARG_BYTEA_PP(0);
     bytea *b_blob = PG_GETARG_BYTEA_PP(1);
-    const phks_signature *q = cached_signature(fcinfo, b_blob);
-    phks_signature *e = decode_or_error(VARDATA_ANY(a_blob),
-                                        VARSIZE_ANY_EXHDR(a_blob),
-                                        "phks_score");
+    /* Without an flinfo (a direct call from C) there is nowhere to keep
+     * the query: it is decoded here and freed with the other one. */
+    phks_signature *own = NULL;
+    const phks_signature *q;
+    if (fcinfo->flinfo)
+        q = cached_signature(fcinfo, b_blob);
+    else
+        q = own = decode_or_error(VARDATA_ANY(b_blob),
+                                  VARSIZE_ANY_EXHDR(b_blob), "phks_score");
+    phks_signature *e = NULL;
+    phks_status st = phks_signature_decode(VARDATA_ANY(a_blob),
+                                           VARSIZE_ANY_EXHDR(a_blob), &e);
     double score = 0.0;
-    phks_status st = query_first ? phks_score(q, e, &score)
-                                 : phks_score(e, q, &score);
+    if (st == PHKS_OK)
+        st = query_first ? phks_score(q, e, &score)
+                         : phks_score(e, q, &score);
     if (st != PHKS_OK) {
         char *msg = last_message(st);
         phks_signature_free(e);
+        phks_signature_free(own);
         pg_noreturn_error(st, "phks_score", msg);
     }
     phks_signature_free(e);
+    phks_signature_free(own);
     PG_RETURN_FLOAT8(score);
 }
 
