@@ -16,6 +16,7 @@ receive function, which validates each one.
 import argparse
 import os
 import random
+import shutil
 import statistics
 import struct
 import subprocess
@@ -45,6 +46,7 @@ tmp = tempfile.mkdtemp(prefix="phks-bench-")
 mesh = os.path.join(tmp, "template.off")
 pgutil.bumpy_sphere_off(mesh, 3)
 template = open(pgutil.signatures(phks, [mesh], tmp)[0], "rb").read()
+shutil.rmtree(tmp)
 
 S = struct.unpack_from("<I", template, 48)[0]
 head = template[:64 + 8 * S]
@@ -111,8 +113,11 @@ BEGIN
     parts := parts || format('(SELECT id, sig <~> $1 AS score FROM %s '
                              'ORDER BY sig <~> $1, id LIMIT $2)', part);
   END LOOP;
-  RETURN QUERY EXECUTE 'SELECT * FROM (' || array_to_string(parts,
-    ' UNION ALL ') || ') AS hits ORDER BY score, id LIMIT $2' USING q, k;
+  -- OFFSET 0 keeps the branches under a plain Append, which runs the
+  -- shards at once with async_capable (a Merge Append would not).
+  RETURN QUERY EXECUTE 'SELECT * FROM (SELECT * FROM ('
+    || array_to_string(parts, ' UNION ALL ')
+    || ') AS u OFFSET 0) AS hits ORDER BY score, id LIMIT $2' USING q, k;
 END $$;"""
 SHARD_QUERY = "SELECT * FROM shard_topk('%s', 10);"
 

@@ -121,8 +121,11 @@ BEGIN
     parts := parts || format('(SELECT id, name, sig <~> $1 AS score FROM %s '
                              'ORDER BY sig <~> $1, id LIMIT $2)', part);
   END LOOP;
-  RETURN QUERY EXECUTE 'SELECT * FROM (' || array_to_string(parts, ' UNION ALL ')
-    || ') AS hits ORDER BY score, id LIMIT $2' USING q, k;
+  -- OFFSET 0 keeps the branches under a plain Append, which runs the
+  -- shards at once with async_capable (a Merge Append would not).
+  RETURN QUERY EXECUTE 'SELECT * FROM (SELECT * FROM ('
+    || array_to_string(parts, ' UNION ALL ')
+    || ') AS u OFFSET 0) AS hits ORDER BY score, id LIMIT $2' USING q, k;
 END $$;""")
 for q in queries[:3]:
     for k in (1, 10):
