@@ -65,17 +65,23 @@ for i, s in enumerate(shards):
 setup.append("CREATE TABLE shapes_single %s;" % TABLE)
 coord.sql("\n".join(setup))
 
-values = ",\n".join("(%d, '%s', '%s')" % (i + 1, os.path.basename(e),
-                                         pgutil.hexfile(e))
-                    for i, e in enumerate(entries))
-# Rows go through the coordinator: routed to the shard of their hash.
-coord.sql("INSERT INTO shapes VALUES %s;\nINSERT INTO shapes_single "
-          "VALUES %s;\nANALYZE shapes_single;" % (values, values))
+COPIES = 40
+values = ",\n".join("(%d, '%s', '%s'::phks_signature)" %
+                     (i + 1, os.path.basename(e), pgutil.hexfile(e))
+                     for i, e in enumerate(entries))
+# Every entry COPIES times under other ids (1000 rows: shards large enough
+# for the planner to send LIMITs, and ties that only the id breaks). Rows
+# go through the coordinator: routed to the shard of their hash.
+rows_sql = ("SELECT g * %d + v.id, v.name, v.sig FROM (VALUES %s) AS "
+            "v (id, name, sig), generate_series(0, %d) AS g" %
+            (len(entries), values, COPIES - 1))
+coord.sql("INSERT INTO shapes %s;\nINSERT INTO shapes_single %s;\n"
+          "ANALYZE shapes_single;" % (rows_sql, rows_sql))
 for s in shards:
     s.sql("ANALYZE shapes;")
 counts = [int(s.sql("SELECT count(*) FROM shapes;")[0][0]) for s in shards]
 print("rows per shard:", counts)
-check(sum(counts) == len(entries) and all(c > 0 for c in counts),
+check(sum(counts) == COPIES * len(entries) and all(c > 0 for c in counts),
       "every shard holds rows: %s" % counts)
 
 
@@ -87,10 +93,10 @@ def topk(table, q, k):
 
 
 for q in queries:
-    for k in (1, 3, 10, len(entries)):
+    for k in (1, 3, 10, 100, COPIES * len(entries)):
         single = topk("shapes_single", q, k)
         sharded = topk("shapes", q, k)
-        check(len(single) == min(k, len(entries)) and sharded == single,
+        check(len(single) == min(k, COPIES * len(entries)) and sharded == single,
               "top-%d of %s: sharded %s\n  single %s" %
               (k, os.path.basename(q), sharded[:3], single[:3]))
 
@@ -134,6 +140,22 @@ for q in queries[:3]:
         got = [(int(r[0]), r[1], float(r[2])) for r in rows]
         check(got == topk("shapes_single", q, k),
               "shard_topk top-%d of %s" % (k, os.path.basename(q)))
+# With async_capable the per-shard form runs the shards at once.
+coord.sql("".join("ALTER SERVER shard%d OPTIONS (ADD async_capable 'true');"
+                  % i for i in range(SHARDS)))
+qh = pgutil.hexfile(queries[0])
+branch = ("(SELECT id, sig <~> '%s' AS score FROM shapes_%%d ORDER BY "
+          "sig <~> '%s', id LIMIT 10)" % (qh, qh))
+plan = coord.sql("EXPLAIN SELECT * FROM (SELECT * FROM (%s) AS u OFFSET 0) "
+                 "AS hits ORDER BY score, id LIMIT 10;" %
+                 " UNION ALL ".join(branch % i for i in range(SHARDS)))
+check(sum("Async Foreign Scan" in r[0] for r in plan) == SHARDS,
+      "async foreign scans: %s" % [r[0][:60] for r in plan])
+for q in queries[:2]:
+    rows = coord.sql("SELECT * FROM shard_topk('%s', 10);" % pgutil.hexfile(q))
+    check([(int(r[0]), r[1], float(r[2])) for r in rows] ==
+          topk("shapes_single", q, 10), "async shard_topk of %s" %
+          os.path.basename(q))
 plan = coord.sql("EXPLAIN (VERBOSE, COSTS OFF) SELECT id FROM shapes_0 "
                  "ORDER BY sig <~> '%s', id LIMIT 10;" %
                  pgutil.hexfile(queries[0]))
