@@ -359,7 +359,8 @@ Datum phks_pg_vectors(PG_FUNCTION_ARGS)
     int lbs[2] = {1, 1};
     PG_RETURN_ARRAYTYPE_P(construct_md_array(values, NULL, 2, dims, lbs,
                                              FLOAT8OID, sizeof(float8),
-                                             FLOAT8PASSBYVAL, TYPALIGN_DOUBLE));
+                                             FLOAT8PASSBYVAL,
+                                             TYPALIGN_DOUBLE));
 }
 
 static void json_number(StringInfo out, const char *key, double v, int first)

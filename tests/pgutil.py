@@ -69,8 +69,9 @@ def install_extension(build_root):
         shutil.copyfile(os.path.realpath(src), tmp)
         os.chmod(tmp, 0o755)
         os.replace(tmp, dst)
-    for f in glob.glob(os.path.join(build_root, "postgres", "phks.control")) + \
-            glob.glob(os.path.join(build_root, "postgres", "phks--*.sql")):
+    ext = os.path.join(build_root, "postgres")
+    for f in glob.glob(os.path.join(ext, "phks.control")) + \
+            glob.glob(os.path.join(ext, "phks--*.sql")):
         shutil.copyfile(f, os.path.join(extdir, os.path.basename(f)))
 
 

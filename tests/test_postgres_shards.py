@@ -55,7 +55,8 @@ for i, s in enumerate(shards):
     setup += [
         "CREATE SERVER shard%d FOREIGN DATA WRAPPER postgres_fdw OPTIONS "
         "(host '127.0.0.1', port '%d', dbname 'postgres', "
-        "extensions 'phks', fetch_size '100', fdw_tuple_cost '1');" % (i, s.port),
+        "extensions 'phks', fetch_size '100', fdw_tuple_cost '1');" %
+        (i, s.port),
         "CREATE USER MAPPING FOR CURRENT_USER SERVER shard%d OPTIONS "
         "(user 'postgres');" % i,
         "CREATE FOREIGN TABLE shapes_%d PARTITION OF shapes FOR VALUES WITH "
@@ -96,7 +97,8 @@ for q in queries:
     for k in (1, 3, 10, 100, COPIES * len(entries)):
         single = topk("shapes_single", q, k)
         sharded = topk("shapes", q, k)
-        check(len(single) == min(k, COPIES * len(entries)) and sharded == single,
+        check(len(single) == min(k, COPIES * len(entries)) and
+              sharded == single,
               "top-%d of %s: sharded %s\n  single %s" %
               (k, os.path.basename(q), sharded[:3], single[:3]))
 
