@@ -1,0 +1,233 @@
+#!/usr/bin/env python3
+"""bench_pg.py BUILD_DIR [-n N] [--queries Q] [--skip-single|--skip-shards]
+
+Times a top-10 query (ORDER BY sig <~> q, id LIMIT 10) over N synthetic
+signatures (default 100000) on one throwaway server, and on three shard
+servers behind a postgres_fdw coordinator (docs/scale.md), all on this
+machine. Called by bench/bench_pg.sh; needs what tests/test_postgres.py
+needs (root, the server packages, the built extension).
+
+The synthetic signatures are valid blobs with the default options: 15
+features at the default 15 scales, vectors of a real signature (the
+tool's, of a generated mesh) moved by seeded noise, so that every score
+differs; they are loaded with COPY (FORMAT binary), through the type's
+receive function, which validates each one.
+"""
+import argparse
+import os
+import random
+import shutil
+import statistics
+import struct
+import subprocess
+import sys
+import tempfile
+import time
+import zlib
+
+here = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.join(here, "..", "tests"))
+import pgutil  # noqa: E402
+
+ap = argparse.ArgumentParser()
+ap.add_argument("build")
+ap.add_argument("-n", type=int, default=100000)
+ap.add_argument("--queries", type=int, default=5)
+ap.add_argument("--shards", type=int, default=3)
+ap.add_argument("--skip-single", action="store_true")
+ap.add_argument("--skip-shards", action="store_true")
+args = ap.parse_args()
+build = os.path.abspath(args.build)
+phks = os.path.join(build, "tools", "phks", "phks")
+
+bindir = pgutil.pg_bindir()
+pgutil.install_extension(build)
+tmp = tempfile.mkdtemp(prefix="phks-bench-")
+mesh = os.path.join(tmp, "template.off")
+pgutil.bumpy_sphere_off(mesh, 3)
+template = open(pgutil.signatures(phks, [mesh], tmp)[0], "rb").read()
+shutil.rmtree(tmp)
+
+S = struct.unpack_from("<I", template, 48)[0]
+head = template[:64 + 8 * S]
+F = struct.unpack_from("<I", template, 64 + 8 * S)[0]
+rec = 36 + 8 * S
+base_vectors = []
+for f in range(F):
+    off = 64 + 8 * S + 4 + f * rec + 36
+    base_vectors.append(struct.unpack_from("<%dd" % S, template, off))
+
+
+def synthetic(seed):
+    rng = random.Random(seed)
+    body = bytearray(head)
+    body += struct.pack("<I", F)
+    for f in range(F):
+        body += struct.pack("<I3dd", rng.randrange(1000), rng.random(),
+                            rng.random(), rng.random(),
+                            float("inf") if f == 0 else 100.0 / (f + 1))
+        scale = rng.uniform(0.5, 1.5)
+        body += struct.pack("<%dd" % S, *[v * scale + rng.gauss(0, 0.3)
+                                          for v in base_vectors[f]])
+    body += struct.pack("<I", zlib.crc32(bytes(body)) & 0xffffffff)
+    return bytes(body)
+
+
+def copy_binary(cluster, table, ids):
+    """Streams rows (id, name, sig) of the given ids with COPY BINARY."""
+    proc = subprocess.Popen(
+        [os.path.join(bindir, "psql"), "-X", "-q", "-v", "ON_ERROR_STOP=1",
+         "-h", cluster.sock, "-p", str(cluster.port), "-U", "postgres",
+         "-c", "COPY %s FROM STDIN (FORMAT binary)" % table],
+        stdin=subprocess.PIPE)
+    out = proc.stdin
+    out.write(b"PGCOPY\n\xff\r\n\x00" + struct.pack(">ii", 0, 0))
+    for i in ids:
+        name = b"syn%d" % i
+        blob = synthetic(i)
+        out.write(struct.pack(">hiq", 3, 8, i) +
+                  struct.pack(">i", len(name)) + name +
+                  struct.pack(">i", len(blob)) + blob)
+    out.write(struct.pack(">h", -1))
+    out.close()
+    if proc.wait() != 0:
+        raise SystemExit("COPY failed")
+
+
+TABLE = ("(id bigint NOT NULL, name text NOT NULL, sig phks_signature "
+         "NOT NULL) WITH (toast_tuple_target = 8160)")
+queries = [synthetic(10 ** 9 + i).hex() for i in range(args.queries)]
+TOPK = "SELECT id, sig <~> '%s' FROM %s ORDER BY sig <~> '%s', id LIMIT 10;"
+
+
+SHARD_TOPK = """
+CREATE FUNCTION shard_topk(q phks_signature, k int)
+RETURNS TABLE (id bigint, score float8)
+LANGUAGE plpgsql STABLE AS $$
+DECLARE
+  part regclass;
+  parts text[] := '{}';
+BEGIN
+  FOR part IN SELECT inhrelid::regclass FROM pg_inherits
+              WHERE inhparent = 'shapes'::regclass LOOP
+    parts := parts || format('(SELECT id, sig <~> $1 AS score FROM %s '
+                             'ORDER BY sig <~> $1, id LIMIT $2)', part);
+  END LOOP;
+  -- OFFSET 0 keeps the branches under a plain Append, which runs the
+  -- shards at once with async_capable (a Merge Append would not).
+  RETURN QUERY EXECUTE 'SELECT * FROM (SELECT * FROM ('
+    || array_to_string(parts, ' UNION ALL ')
+    || ') AS u OFFSET 0) AS hits ORDER BY score, id LIMIT $2' USING q, k;
+END $$;"""
+SHARD_QUERY = "SELECT * FROM shard_topk('%s', 10);"
+
+
+def timed(cluster, table, pre="", shard_topk=False):
+    """Median and best time of the queries, in one session after one
+    warm-up query (connections to the shards, caches)."""
+    script = "\\timing on\n" + pre + "".join(
+        (SHARD_QUERY % q if shard_topk else TOPK % (q, table, q)) +
+        "\\echo ==\n" for q in [queries[0]] + queries)
+    out = subprocess.run(
+        [os.path.join(bindir, "psql"), "-X", "-A", "-t", "-v",
+         "ON_ERROR_STOP=1", "-h", cluster.sock, "-p", str(cluster.port),
+         "-U", "postgres", "-f", "-"], input=script, capture_output=True,
+        text=True, check=True)
+    blocks = out.stdout.split("==\n")[1:len(queries) + 1]
+    times, results = [], []
+    for b in blocks:
+        lines = b.splitlines()
+        times.append(float([x for x in lines if x.startswith("Time:")][-1]
+                           .split()[1]))
+        results.append([x for x in lines if "|" in x])
+    return statistics.median(times), min(times), results
+
+
+report = []
+print("N = %d synthetic signatures, %d queries, top 10" % (args.n,
+                                                         len(queries)))
+single_results = None
+if not args.skip_single:
+    pg = pgutil.Cluster(bindir, "bench-single",
+                        settings=["shared_buffers=1GB", "max_wal_size=4GB"])
+    pg.sql("CREATE EXTENSION phks; CREATE TABLE shapes %s;" % TABLE)
+    t = time.time()
+    copy_binary(pg, "shapes", range(1, args.n + 1))
+    pg.sql("ANALYZE shapes; SELECT count(*) FROM shapes;")
+    print("single: loaded in %.1f s" % (time.time() - t))
+    med, best, single_results = timed(
+        pg, "shapes", "SET max_parallel_workers_per_gather = 0;\n")
+    report.append(("one server, one process", med, best))
+    med, best, res = timed(pg, "shapes",
+                           "SET max_parallel_workers_per_gather = 2;\n")
+    assert res == single_results, "parallel plan differs"
+    report.append(("one server, 2 parallel workers", med, best))
+    pg.stop()
+
+if not args.skip_shards:
+    shards = [pgutil.Cluster(bindir, "bench-shard%d" % i,
+                             settings=["shared_buffers=512MB",
+                                       "max_wal_size=4GB"])
+              for i in range(args.shards)]
+    coord = pgutil.Cluster(bindir, "bench-coord")
+    setup = ["CREATE EXTENSION phks;", "CREATE EXTENSION postgres_fdw;",
+             "CREATE TABLE shapes (id bigint NOT NULL, name text NOT NULL, "
+             "sig phks_signature NOT NULL) PARTITION BY HASH (id);"]
+    t = time.time()
+    for i, s in enumerate(shards):
+        s.sql("CREATE EXTENSION phks; CREATE TABLE shapes %s;" % TABLE)
+        # Rows straight to their shard (the hash of the coordinator's
+        # partitioning decides which: satisfies_hash_partition).
+        setup += [
+            "CREATE SERVER shard%d FOREIGN DATA WRAPPER postgres_fdw "
+            "OPTIONS (host '127.0.0.1', port '%d', dbname 'postgres', "
+            "extensions 'phks', fetch_size '100', fdw_tuple_cost '1');"
+            % (i, s.port),
+            "CREATE USER MAPPING FOR CURRENT_USER SERVER shard%d OPTIONS "
+            "(user 'postgres');" % i,
+            "CREATE FOREIGN TABLE shapes_%d PARTITION OF shapes FOR VALUES "
+            "WITH (MODULUS %d, REMAINDER %d) SERVER shard%d OPTIONS "
+            "(table_name 'shapes', use_remote_estimate 'true');"
+            % (i, args.shards, i, i)]
+    coord.sql("\n".join(setup))
+    # Which shard holds each id: asked of the coordinator in one query.
+    rows = coord.sql("SELECT i, (SELECT r FROM generate_series(0, %d) r "
+                     "WHERE satisfies_hash_partition('shapes'::regclass, "
+                     "%d, r, i)) FROM generate_series(1::bigint, %d) i;" %
+                     (args.shards - 1, args.shards, args.n, ))
+    owner = {}
+    for i, r in rows:
+        owner.setdefault(int(r), []).append(int(i))
+    for r, s in enumerate(shards):
+        copy_binary(s, "shapes", owner.get(r, []))
+        s.sql("ANALYZE shapes;")
+    print("shards: loaded in %.1f s (%s rows)" %
+          (time.time() - t, [len(owner.get(r, [])) for r in
+                             range(args.shards)]))
+    med, best, res = timed(coord, "shapes")
+    if single_results is not None:
+        assert res == single_results, "sharded top-10 differs"
+    report.append(("coordinator + %d shards (Merge Append)" % args.shards,
+                   med, best))
+    coord.sql(SHARD_TOPK)
+    med, best, res = timed(coord, "shapes", "", shard_topk=True)
+    if single_results is not None:
+        assert res == single_results, "shard_topk differs"
+    report.append(("coordinator + %d shards (shard_topk, LIMIT per shard)"
+                   % args.shards, med, best))
+    # The shards' scans at the same time (postgres_fdw's async Append).
+    coord.sql("".join("ALTER SERVER shard%d OPTIONS (ADD async_capable "
+                      "'true');" % i for i in range(args.shards)))
+    med, best, res = timed(coord, "shapes", "", shard_topk=True)
+    if single_results is not None:
+        assert res == single_results, "async shard_topk differs"
+    report.append(("coordinator + %d shards (shard_topk, async_capable)"
+                   % args.shards, med, best))
+    for c in shards + [coord]:
+        c.stop()
+
+print()
+print("| setup | median ms | best ms |")
+print("|---|---|---|")
+for name, med, best in report:
+    print("| %s | %.0f | %.0f |" % (name, med, best))

@@ -1,0 +1,468 @@
+/*
+ * phks_pg.c - the PostgreSQL extension `phks` (docs/postgres.md): the type
+ * phks_signature (the library's encoded blob), scoring, the operator <~>,
+ * accessors and signatures computed from mesh bytes inside the server.
+ *
+ * Public API only (include/phks.h). Every library handle is freed before
+ * any ereport(ERROR) can leave the function: the library allocates with
+ * malloc, which PostgreSQL's memory contexts do not clean up.
+ */
+#include "postgres.h"
+
+#include <dlfcn.h>
+#include <string.h>
+
+#include "catalog/pg_type.h"
+#include "common/shortest_dec.h"
+#include "fmgr.h"
+#include "lib/stringinfo.h"
+#include "libpq/pqformat.h"
+#include "miscadmin.h"
+#include "utils/array.h"
+#include "utils/builtins.h"
+#include "utils/memutils.h"
+
+#include "phks.h"
+
+PG_MODULE_MAGIC;
+
+void _PG_init(void);
+
+/* OpenBLAS threads have no place in a backend: computations run on the
+ * backend's own thread (options.threads = 1) and BLAS on one thread too.
+ * (The server's environment should also have OPENBLAS_NUM_THREADS=1, so
+ * that OpenBLAS does not even start its pool: docs/postgres.md.) */
+void _PG_init(void)
+{
+    void (*set_threads)(int) = NULL;
+    void *sym = dlsym(RTLD_DEFAULT, "openblas_set_num_threads");
+    if (sym)
+        memcpy(&set_threads, &sym, sizeof set_threads);
+    if (set_threads)
+        set_threads(1);
+}
+
+/* The SQLSTATE for a library status. */
+static int pg_errcode_of(phks_status st)
+{
+    switch (st) {
+    case PHKS_ERROR_OUT_OF_MEMORY:
+        return ERRCODE_OUT_OF_MEMORY;
+    case PHKS_ERROR_INCOMPATIBLE:
+        return ERRCODE_INVALID_PARAMETER_VALUE;
+    case PHKS_ERROR_CORRUPT:
+    case PHKS_ERROR_TRUNCATED:
+    case PHKS_ERROR_UNSUPPORTED_VERSION:
+        return ERRCODE_INVALID_BINARY_REPRESENTATION;
+    case PHKS_ERROR_UNKNOWN_FORMAT:
+    case PHKS_ERROR_PARSE:
+    case PHKS_ERROR_NON_FINITE:
+    case PHKS_ERROR_INDEX_OUT_OF_RANGE:
+    case PHKS_ERROR_NO_TRIANGLES:
+    case PHKS_ERROR_ZERO_AREA:
+    case PHKS_ERROR_TOO_LARGE:
+        return ERRCODE_DATA_EXCEPTION;
+    case PHKS_ERROR_CANCELLED:
+        return ERRCODE_QUERY_CANCELED;
+    case PHKS_ERROR_INVALID_ARGUMENT:
+        return ERRCODE_INVALID_PARAMETER_VALUE;
+    default:
+        return ERRCODE_EXTERNAL_ROUTINE_EXCEPTION;
+    }
+}
+
+/* The library's message for the last failure, copied into palloc'd memory
+ * (call it before freeing handles: a later failing call replaces it). */
+static char *last_message(phks_status st)
+{
+    const char *msg = phks_last_error_message();
+    if (!msg || !*msg)
+        msg = phks_status_string(st);
+    return pstrdup(msg);
+}
+
+/* Raises the error of status st with the message copied by last_message.
+ * Call it only once every library handle is freed. */
+static void pg_noreturn_error(phks_status st, const char *what, char *msg)
+    pg_attribute_noreturn();
+static void pg_noreturn_error(phks_status st, const char *what, char *msg)
+{
+    ereport(ERROR, (errcode(pg_errcode_of(st)),
+                    errmsg("%s: %s", what, msg)));
+    pg_unreachable();
+}
+
+/* Decodes a blob into a new library handle, or raises the decode error
+ * (nothing to free then: decode leaves *sig NULL on failure). */
+static phks_signature *decode_or_error(const void *data, size_t size,
+                                       const char *what)
+{
+    phks_signature *sig = NULL;
+    phks_status st = phks_signature_decode(data, size, &sig);
+    if (st != PHKS_OK) {
+        char *msg = last_message(st);
+        pg_noreturn_error(st, what, msg);
+    }
+    return sig;
+}
+
+/* A palloc'd varlena holding the encoded blob of sig; frees sig (also when
+ * encoding fails, before raising the error). */
+static bytea *encode_and_free(phks_signature *sig, const char *what)
+{
+    size_t size = phks_signature_encoded_size(sig);
+    bytea *out = (bytea *)palloc(VARHDRSZ + size);
+    size_t written = 0;
+    phks_status st = phks_signature_encode(sig, VARDATA(out), size, &written);
+    if (st != PHKS_OK || written != size) {
+        char *msg = st != PHKS_OK ? last_message(st)
+                                  : pstrdup("encoded size changed");
+        phks_signature_free(sig);
+        pg_noreturn_error(st != PHKS_OK ? st : PHKS_ERROR_CORRUPT, what, msg);
+    }
+    phks_signature_free(sig);
+    SET_VARSIZE(out, VARHDRSZ + size);
+    return out;
+}
+
+/* Validates raw bytes as a blob and returns them as a new varlena. */
+static bytea *validated_copy(const char *data, size_t size, const char *what)
+{
+    phks_signature *sig = decode_or_error(data, size, what);
+    phks_signature_free(sig);
+    bytea *out = (bytea *)palloc(VARHDRSZ + size);
+    memcpy(VARDATA(out), data, size);
+    SET_VARSIZE(out, VARHDRSZ + size);
+    return out;
+}
+
+/* ---------------------------------------------------------------------
+ * Type I/O: text is the hex of the blob (an optional \x prefix is
+ * accepted on input, as for bytea); binary is the blob itself.
+ * ------------------------------------------------------------------- */
+PG_FUNCTION_INFO_V1(phks_signature_in);
+Datum phks_signature_in(PG_FUNCTION_ARGS)
+{
+    const char *text = PG_GETARG_CSTRING(0);
+    if (text[0] == '\\' && (text[1] == 'x' || text[1] == 'X'))
+        text += 2;
+    size_t len = strlen(text);
+    if (len % 2 != 0)
+        ereport(ERROR, (errcode(ERRCODE_INVALID_TEXT_REPRESENTATION),
+                        errmsg("invalid input syntax for type phks_signature: "
+                               "odd number of hex digits")));
+    char *raw = palloc(len / 2 + 1);
+    for (size_t i = 0; i < len / 2; i++) {
+        int v = 0;
+        for (int h = 0; h < 2; h++) {
+            char c = text[2 * i + h];
+            int d;
+            if (c >= '0' && c <= '9')
+                d = c - '0';
+            else if (c >= 'a' && c <= 'f')
+                d = c - 'a' + 10;
+            else if (c >= 'A' && c <= 'F')
+                d = c - 'A' + 10;
+            else
+                ereport(ERROR,
+                        (errcode(ERRCODE_INVALID_TEXT_REPRESENTATION),
+                         errmsg("invalid input syntax for type "
+                                "phks_signature: \"%c\" is not a hex digit",
+                                c)));
+            v = v * 16 + d;
+        }
+        raw[i] = (char)v;
+    }
+    bytea *out = validated_copy(raw, len / 2, "phks_signature");
+    pfree(raw);
+    PG_RETURN_BYTEA_P(out);
+}
+
+PG_FUNCTION_INFO_V1(phks_signature_out);
+Datum phks_signature_out(PG_FUNCTION_ARGS)
+{
+    bytea *blob = PG_GETARG_BYTEA_PP(0);
+    const unsigned char *data = (const unsigned char *)VARDATA_ANY(blob);
+    size_t size = VARSIZE_ANY_EXHDR(blob);
+    static const char digits[] = "0123456789abcdef";
+    char *out = palloc(2 * size + 1);
+    for (size_t i = 0; i < size; i++) {
+        out[2 * i] = digits[data[i] >> 4];
+        out[2 * i + 1] = digits[data[i] & 15];
+    }
+    out[2 * size] = '\0';
+    PG_RETURN_CSTRING(out);
+}
+
+PG_FUNCTION_INFO_V1(phks_signature_recv);
+Datum phks_signature_recv(PG_FUNCTION_ARGS)
+{
+    StringInfo buf = (StringInfo)PG_GETARG_POINTER(0);
+    int size = buf->len - buf->cursor;
+    const char *data = pq_getmsgbytes(buf, size);
+    PG_RETURN_BYTEA_P(validated_copy(data, (size_t)size, "phks_signature"));
+}
+
+PG_FUNCTION_INFO_V1(phks_signature_send);
+Datum phks_signature_send(PG_FUNCTION_ARGS)
+{
+    bytea *blob = PG_GETARG_BYTEA_P_COPY(0);
+    PG_RETURN_BYTEA_P(blob);
+}
+
+/* bytea -> phks_signature, validated. */
+PG_FUNCTION_INFO_V1(phks_signature_from_bytea);
+Datum phks_signature_from_bytea(PG_FUNCTION_ARGS)
+{
+    bytea *blob = PG_GETARG_BYTEA_PP(0);
+    PG_RETURN_BYTEA_P(validated_copy(VARDATA_ANY(blob),
+                                     VARSIZE_ANY_EXHDR(blob),
+                                     "phks_signature"));
+}
+
+/* ---------------------------------------------------------------------
+ * Scoring. The decoded signature of the second argument (the query, in
+ * ORDER BY sig <~> $1) is kept between calls of the same expression,
+ * keyed by its bytes, and freed with the expression's memory context.
+ * ------------------------------------------------------------------- */
+typedef struct score_cache {
+    size_t size;
+    char *blob;          /* in fn_mcxt */
+    phks_signature *sig; /* library handle, freed by the reset callback */
+    MemoryContextCallback cb;
+} score_cache;
+
+static void score_cache_free(void *arg)
+{
+    score_cache *cache = (score_cache *)arg;
+    phks_signature_free(cache->sig);
+    cache->sig = NULL;
+}
+
+static const phks_signature *cached_signature(FunctionCallInfo fcinfo,
+                                              bytea *blob)
+{
+    score_cache *cache = (score_cache *)fcinfo->flinfo->fn_extra;
+    const char *data = VARDATA_ANY(blob);
+    size_t size = VARSIZE_ANY_EXHDR(blob);
+    if (cache && cache->sig && cache->size == size &&
+        memcmp(cache->blob, data, size) == 0)
+        return cache->sig;
+    if (!cache) {
+        cache = MemoryContextAllocZero(fcinfo->flinfo->fn_mcxt,
+                                       sizeof *cache);
+        cache->cb.func = score_cache_free;
+        cache->cb.arg = cache;
+        MemoryContextRegisterResetCallback(fcinfo->flinfo->fn_mcxt,
+                                           &cache->cb);
+        fcinfo->flinfo->fn_extra = cache;
+    }
+    phks_signature_free(cache->sig);
+    cache->sig = NULL;
+    if (cache->blob)
+        pfree(cache->blob);
+    cache->blob = NULL;
+    phks_signature *sig = decode_or_error(data, size, "phks_score");
+    cache->blob = MemoryContextAlloc(fcinfo->flinfo->fn_mcxt, size ? size : 1);
+    memcpy(cache->blob, data, size);
+    cache->size = size;
+    cache->sig = sig;
+    return sig;
+}
+
+/* score(first, second) with second's handle cached; the other argument
+ * decoded here and freed before any error. */
+static Datum score_args(FunctionCallInfo fcinfo, int query_first)
+{
+    bytea *a_blob = PG_GETARG_BYTEA_PP(0);
+    bytea *b_blob = PG_GETARG_BYTEA_PP(1);
+    /* Without an flinfo (a direct call from C) there is nowhere to keep
+     * the query: it is decoded here and freed with the other one. */
+    phks_signature *own = NULL;
+    const phks_signature *q;
+    if (fcinfo->flinfo)
+        q = cached_signature(fcinfo, b_blob);
+    else
+        q = own = decode_or_error(VARDATA_ANY(b_blob),
+                                  VARSIZE_ANY_EXHDR(b_blob), "phks_score");
+    phks_signature *e = NULL;
+    phks_status st = phks_signature_decode(VARDATA_ANY(a_blob),
+                                           VARSIZE_ANY_EXHDR(a_blob), &e);
+    double score = 0.0;
+    if (st == PHKS_OK)
+        st = query_first ? phks_score(q, e, &score)
+                         : phks_score(e, q, &score);
+    if (st != PHKS_OK) {
+        char *msg = last_message(st);
+        phks_signature_free(e);
+        phks_signature_free(own);
+        pg_noreturn_error(st, "phks_score", msg);
+    }
+    phks_signature_free(e);
+    phks_signature_free(own);
+    PG_RETURN_FLOAT8(score);
+}
+
+/* phks_score(a, b): the library's phks_score(a, b). */
+PG_FUNCTION_INFO_V1(phks_pg_score);
+Datum phks_pg_score(PG_FUNCTION_ARGS)
+{
+    return score_args(fcinfo, 0);
+}
+
+/* entry <~> query: the library's phks_score(query, entry), the very number
+ * phks_db_query reports (the score is symmetric up to the rounding of its
+ * two sums, which are added in the other order when the arguments swap). */
+PG_FUNCTION_INFO_V1(phks_pg_distance);
+Datum phks_pg_distance(PG_FUNCTION_ARGS)
+{
+    return score_args(fcinfo, 1);
+}
+
+/* ---------------------------------------------------------------------
+ * Accessors
+ * ------------------------------------------------------------------- */
+static phks_signature *arg_signature(FunctionCallInfo fcinfo, int n,
+                                     const char *what)
+{
+    bytea *blob = PG_GETARG_BYTEA_PP(n);
+    return decode_or_error(VARDATA_ANY(blob), VARSIZE_ANY_EXHDR(blob), what);
+}
+
+PG_FUNCTION_INFO_V1(phks_pg_feature_count);
+Datum phks_pg_feature_count(PG_FUNCTION_ARGS)
+{
+    phks_signature *sig = arg_signature(fcinfo, 0, "phks_feature_count");
+    size_t n = phks_signature_feature_count(sig);
+    phks_signature_free(sig);
+    PG_RETURN_INT32((int32)n);
+}
+
+PG_FUNCTION_INFO_V1(phks_pg_vectors);
+Datum phks_pg_vectors(PG_FUNCTION_ARGS)
+{
+    phks_signature *sig = arg_signature(fcinfo, 0, "phks_vectors");
+    size_t count = phks_signature_feature_count(sig);
+    size_t length = phks_signature_vector_length(sig);
+    if (count == 0 || length == 0) {
+        phks_signature_free(sig);
+        PG_RETURN_ARRAYTYPE_P(construct_empty_array(FLOAT8OID));
+    }
+    Datum *values = palloc(sizeof(Datum) * count * length);
+    for (size_t i = 0; i < count; i++) {
+        const double *v = phks_signature_feature_vector(sig, i);
+        for (size_t j = 0; j < length; j++)
+            values[i * length + j] = Float8GetDatum(v ? v[j] : 0.0);
+    }
+    phks_signature_free(sig);
+    int dims[2] = {(int)count, (int)length};
+    int lbs[2] = {1, 1};
+    PG_RETURN_ARRAYTYPE_P(construct_md_array(values, NULL, 2, dims, lbs,
+                                             FLOAT8OID, sizeof(float8),
+                                             FLOAT8PASSBYVAL,
+                                             TYPALIGN_DOUBLE));
+}
+
+static void json_number(StringInfo out, const char *key, double v, int first)
+{
+    char buf[DOUBLE_SHORTEST_DECIMAL_LEN];
+    double_to_shortest_decimal_buf(v, buf);
+    appendStringInfo(out, "%s\"%s\": %s", first ? "" : ", ", key, buf);
+}
+
+PG_FUNCTION_INFO_V1(phks_pg_options);
+Datum phks_pg_options(PG_FUNCTION_ARGS)
+{
+    phks_signature *sig = arg_signature(fcinfo, 0, "phks_options");
+    phks_options o;
+    phks_status st = phks_signature_options(sig, &o);
+    if (st != PHKS_OK) {
+        char *msg = last_message(st);
+        phks_signature_free(sig);
+        pg_noreturn_error(st, "phks_options", msg);
+    }
+    phks_signature_free(sig);
+    StringInfoData out;
+    initStringInfo(&out);
+    appendStringInfoChar(&out, '{');
+    json_number(&out, "tau", o.tau, 1);
+    json_number(&out, "cutoff", o.cutoff, 0);
+    appendStringInfo(&out, ", \"eigen_count\": %u", (unsigned)o.eigen_count);
+    appendStringInfo(&out, ", \"feature_count\": %u",
+                     (unsigned)o.feature_count);
+    appendStringInfoString(&out, ", \"scales\": [");
+    for (uint32_t i = 0; i < o.scale_count && i < PHKS_MAX_SCALES; i++) {
+        char buf[DOUBLE_SHORTEST_DECIMAL_LEN];
+        double_to_shortest_decimal_buf(o.scales[i], buf);
+        appendStringInfo(&out, "%s%s", i ? ", " : "", buf);
+    }
+    appendStringInfoChar(&out, ']');
+    json_number(&out, "feature_scale", o.feature_scale, 0);
+    appendStringInfo(&out, ", \"operator_kind\": %d", (int)o.operator_kind);
+    appendStringInfo(&out, ", \"box\": %d", (int)o.box);
+    json_number(&out, "boundary_margin", o.boundary_margin, 0);
+    appendStringInfo(&out, ", \"hks_scaling\": %d", (int)o.hks_scaling);
+    appendStringInfoChar(&out, '}');
+    /* json's representation is its text. */
+    PG_RETURN_TEXT_P(cstring_to_text_with_len(out.data, out.len));
+}
+
+/* ---------------------------------------------------------------------
+ * Signatures from mesh bytes, computed in the backend on its own thread
+ * with the default options. A pending cancel or termination stops the
+ * computation through the progress callback; the handles are freed and
+ * CHECK_FOR_INTERRUPTS raises it.
+ * ------------------------------------------------------------------- */
+static int progress_interrupts(void *user, phks_stage stage, double fraction)
+{
+    (void)user;
+    (void)stage;
+    (void)fraction;
+    return (QueryCancelPending || ProcDiePending) ? 1 : 0;
+}
+
+PG_FUNCTION_INFO_V1(phks_pg_from_mesh);
+Datum phks_pg_from_mesh(PG_FUNCTION_ARGS)
+{
+    bytea *data = PG_GETARG_BYTEA_PP(0);
+    char *format_name = text_to_cstring(PG_GETARG_TEXT_PP(1));
+    phks_format format;
+    if (pg_strcasecmp(format_name, "auto") == 0)
+        format = PHKS_FORMAT_AUTO;
+    else if (pg_strcasecmp(format_name, "off") == 0)
+        format = PHKS_FORMAT_OFF;
+    else if (pg_strcasecmp(format_name, "obj") == 0)
+        format = PHKS_FORMAT_OBJ;
+    else if (pg_strcasecmp(format_name, "ply") == 0)
+        format = PHKS_FORMAT_PLY;
+    else if (pg_strcasecmp(format_name, "stl") == 0)
+        format = PHKS_FORMAT_STL;
+    else
+        ereport(ERROR, (errcode(ERRCODE_INVALID_PARAMETER_VALUE),
+                        errmsg("phks_signature_from_mesh: unknown format "
+                               "\"%s\" (auto, off, obj, ply or stl)",
+                               format_name)));
+
+    phks_mesh *mesh = NULL;
+    phks_status st = phks_mesh_load_memory(VARDATA_ANY(data),
+                                           VARSIZE_ANY_EXHDR(data), format,
+                                           &mesh);
+    if (st != PHKS_OK) {
+        char *msg = last_message(st);
+        pg_noreturn_error(st, "phks_signature_from_mesh", msg);
+    }
+    phks_options options;
+    phks_options_init(&options);
+    options.threads = 1;
+    options.progress = progress_interrupts;
+    phks_signature *sig = NULL;
+    st = phks_signature_compute(mesh, &options, &sig);
+    phks_mesh_free(mesh);
+    if (st != PHKS_OK) {
+        char *msg = last_message(st);
+        if (st == PHKS_ERROR_CANCELLED)
+            CHECK_FOR_INTERRUPTS();
+        pg_noreturn_error(st, "phks_signature_from_mesh", msg);
+    }
+    PG_RETURN_BYTEA_P(encode_and_free(sig, "phks_signature_from_mesh"));
+}

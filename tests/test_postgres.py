@@ -1,0 +1,226 @@
+#!/usr/bin/env python3
+"""test_postgres.py BUILD_ROOT PHKS_TOOL [SHARED_MESHES]
+
+The PostgreSQL extension (docs/postgres.md) on a throwaway cluster: the
+SQL top-k (ORDER BY sig <~> q, id LIMIT k) equals `phks db query --json`
+on the same entries (ids, names and scores exactly), in plain and in
+parallel plans; bad blobs and signatures made with other options give
+errors (naming the option), never a crash; text and binary I/O round trip;
+phks_signature_from_mesh equals the tool's signature byte for byte; the
+accessors agree with `phks signature --json`.
+"""
+import json
+import os
+import subprocess
+import sys
+import time
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import pgutil  # noqa: E402
+
+build_root, phks = sys.argv[1], sys.argv[2]
+shared = sys.argv[3] if len(sys.argv) > 3 else os.environ.get(
+    "PHKS_SHARED_MESHES", "")
+
+bindir = pgutil.pg_bindir()
+t0 = time.time()
+pgutil.install_extension(build_root)
+work = os.path.join(build_root, "tests", "postgres-work")
+os.makedirs(work, exist_ok=True)
+
+failures = []
+
+
+def check(cond, what):
+    if not cond:
+        failures.append(what)
+        print("FAIL: " + what)
+
+
+meshes, source = pgutil.test_meshes(shared, os.path.join(work, "meshes"), 30)
+sigs = pgutil.signatures(phks, meshes, os.path.join(work, "sigs-" + source))
+entries, queries = sigs[:24], sigs[24:] + sigs[:2]
+# One entry twice: a tie that only the id breaks.
+entries = entries + [entries[5]]
+print("%d signatures in %.1f s" % (len(sigs), time.time() - t0))
+
+db = os.path.join(work, "t.db")
+for f in (db, db + "-wal", db + "-shm"):
+    if os.path.exists(f):
+        os.remove(f)
+r = subprocess.run([phks, "db", "add", db, "-j", "1", "--allow-duplicates"] +
+                   entries, capture_output=True, text=True)
+if r.returncode != 0:
+    raise SystemExit("phks db add: " + r.stderr)
+
+pg = pgutil.Cluster(bindir, "single")
+print("cluster on port %d (%.1f s)" % (pg.port, time.time() - t0))
+pg.sql("CREATE EXTENSION phks;")
+version = pg.sql("SELECT extversion FROM pg_extension WHERE extname='phks';")
+print("extension version", version[0][0])
+
+values = ",\n".join("(%d, '%s', '%s')" % (i + 1, e, pgutil.hexfile(e))
+                    for i, e in enumerate(entries))
+pg.sql("CREATE TABLE shapes (id bigint PRIMARY KEY, name text NOT NULL, "
+       "sig phks_signature NOT NULL) WITH (toast_tuple_target = 8160);\n"
+       "INSERT INTO shapes VALUES %s;\nANALYZE shapes;" % values)
+
+# Text output is the blob's hex; the stored bytes are the tool's.
+rows = pg.sql("SELECT id, sig FROM shapes ORDER BY id;")
+check(all(row[1] == pgutil.hexfile(entries[int(row[0]) - 1])
+          for row in rows) and len(rows) == len(entries),
+      "text output is the hex of the blob")
+rows = pg.sql("SELECT count(*) FROM shapes WHERE sig::bytea = "
+              "decode('%s', 'hex');" % pgutil.hexfile(entries[3]))
+check(rows == [["1"]], "cast to bytea gives the blob")
+
+PARALLEL = ("SET max_parallel_workers_per_gather = 2; "
+            "SET parallel_setup_cost = 0; SET parallel_tuple_cost = 0; "
+            "SET min_parallel_table_scan_size = 0; "
+            "SET parallel_leader_participation = off;\n")
+
+
+def sql_topk(q, k, prefix=""):
+    rows = pg.sql(prefix + "SELECT id, name, sig <~> q FROM shapes, "
+                  "(SELECT '%s'::phks_signature AS q) AS query "
+                  "ORDER BY sig <~> q, id LIMIT %d;" % (pgutil.hexfile(q), k))
+    return [(int(r[0]), r[1], float(r[2])) for r in rows]
+
+
+def tool_topk(q, k):
+    r = subprocess.run([phks, "db", "query", db, q, "-k", str(k), "--json"],
+                       capture_output=True, text=True)
+    if r.returncode != 0:
+        raise SystemExit("phks db query: " + r.stderr)
+    return [(h["id"], h["name"], float(h["score"]))
+            for h in json.loads(r.stdout)]
+
+
+for q in queries + [entries[5]]:
+    for k in (1, 5, 10, len(entries)):
+        want = tool_topk(q, k)
+        got = sql_topk(q, k)
+        check(got == want, "top-%d of %s: SQL %s\n  tool %s" % (
+            k, os.path.basename(q), got[:4], want[:4]))
+    got = sql_topk(q, 10, PARALLEL)
+    check(got == tool_topk(q, 10),
+          "top-10 of %s in a parallel plan" % os.path.basename(q))
+plan = pg.sql(PARALLEL + "EXPLAIN SELECT id FROM shapes ORDER BY sig <~> "
+              "'%s', id LIMIT 10;" % pgutil.hexfile(queries[0]))
+check(any("Gather" in r[0] for r in plan), "a parallel plan is chosen: %s"
+      % plan)
+# The function is the operator, and symmetric.
+# entry <~> query is phks_score(query, entry), bit for bit; swapped
+# arguments agree to rounding.
+rows = pg.sql("SELECT bool_and(phks_score(a.sig, b.sig) = b.sig <~> a.sig "
+              "AND abs((a.sig <~> b.sig) - (b.sig <~> a.sig)) <= "
+              "1e-12 * (1 + (a.sig <~> b.sig))) FROM shapes a, shapes b;")
+check(rows == [["t"]], "phks_score(q, e) equals e <~> q")
+print("top-k checked (%.1f s)" % (time.time() - t0))
+
+# Bad blobs: errors, never a crash.
+good = pgutil.hexfile(entries[0])
+flipped = good[:200] + ("0" if good[200] != "0" else "1") + good[201:]
+for bad, what, expect in [
+        ("zz", "not hex", "hex digit"),
+        ("abc", "odd hex", "odd number"),
+        ("", "empty", "phks_signature"),
+        ("00ff", "short", "phks_signature"),
+        (good[:-8], "truncated", "phks_signature"),
+        (flipped, "flipped byte", "phks_signature"),
+        ("50484b53" + "00" * 80, "magic only", "phks_signature")]:
+    err = pg.error("SELECT '%s'::phks_signature;" % bad)
+    check("ERROR" in err and expect in err, "bad blob (%s): %s" % (what, err))
+    print("bad blob (%s): %s" % (what, err.strip().splitlines()[0]))
+    err = pg.error("SELECT phks_feature_count(decode('%s', 'hex')::"
+                   "phks_signature);" % bad) if what not in (
+        "not hex", "odd hex") else "ERROR phks_signature"
+    check("ERROR" in err, "bad bytea (%s): %s" % (what, err))
+check(pg.sql("SELECT 1;") == [["1"]], "the server survives bad blobs")
+
+# Binary send/receive: COPY BINARY round trip, and a damaged binary blob.
+copy = os.path.join(pg.root, "shapes.bin")
+pg.sql("COPY shapes TO '%s' (FORMAT binary);\n"
+       "CREATE TABLE shapes2 (LIKE shapes);\n"
+       "COPY shapes2 FROM '%s' (FORMAT binary);" % (copy, copy))
+rows = pg.sql("SELECT count(*) FROM shapes a JOIN shapes2 b USING (id) "
+              "WHERE a.sig::bytea = b.sig::bytea;")
+check(rows == [[str(len(entries))]], "binary COPY round trip: %s" % rows)
+with open(copy, "rb") as f:
+    data = bytearray(f.read())
+data[len(data) // 2] ^= 0x55
+bad_copy = os.path.join(pg.root, "bad.bin")
+with open(bad_copy, "wb") as f:
+    f.write(bytes(data))
+err = pg.error("COPY shapes2 FROM '%s' (FORMAT binary);" % bad_copy)
+check("ERROR" in err, "damaged binary COPY: %s" % err)
+
+# Signatures made with other options: an error naming the option.
+other = pgutil.signatures(phks, meshes[:1], os.path.join(work, "sigs-" +
+                                                         source),
+                          ["--hks-scaling", "none"])[0]
+err = pg.error("SELECT id FROM shapes ORDER BY sig <~> '%s', id LIMIT 3;"
+               % pgutil.hexfile(other))
+check("hks_scaling" in err, "mismatched options name the option: %s" % err)
+print("mismatch: " + err.strip().splitlines()[0])
+err = pg.error("SELECT phks_score('%s', sig) FROM shapes;"
+               % pgutil.hexfile(other))
+check("hks_scaling" in err, "mismatched options (first argument): %s" % err)
+other2 = pgutil.signatures(phks, meshes[:1], os.path.join(work, "sigs-" +
+                                                          source),
+                           ["--operator", "literal"])[0]
+err = pg.error("SELECT phks_score('%s', '%s');" % (pgutil.hexfile(other2),
+                                                  good))
+check("operator" in err, "mismatched operator names it: %s" % err)
+
+# Accessors against the tool's --json.
+r = subprocess.run([phks, "signature", entries[0], "--json"],
+                   capture_output=True, text=True)
+info = json.loads(r.stdout)
+rows = pg.sql("SELECT phks_feature_count(sig), phks_vectors(sig)::text, "
+              "phks_options(sig)::text FROM shapes WHERE id = 1;")
+count, vectors, options = rows[0]
+check(int(count) == info["feature_count"], "phks_feature_count")
+vec = json.loads(vectors.replace("{", "[").replace("}", "]"))
+check(vec == [f["vector"] for f in info["features"]],
+      "phks_vectors equals the tool's vectors")
+opts = json.loads(options)
+tool_opts = info["options"]
+check(all(opts[k] == tool_opts[k] for k in
+          ("tau", "cutoff", "eigen_count", "feature_count", "scales",
+           "feature_scale", "boundary_margin")),
+      "phks_options: %s against %s" % (opts, tool_opts))
+names = {"operator_kind": ("operator", ["literal", "random-walk"]),
+         "box": ("box", ["principal", "axis-aligned"]),
+         "hks_scaling": ("hks_scaling", ["none", "mean", "local-area"])}
+check(all(names[k][1][opts[k]] == tool_opts[names[k][0]] for k in names),
+      "phks_options enumerations: %s" % opts)
+
+# Signatures computed in the server equal the tool's, byte for byte.
+for m, s in list(zip(meshes, sigs))[:3] + [(meshes[-1], sigs[-1])]:
+    with open(m, "rb") as f:
+        mesh_hex = f.read().hex()
+    fmt = "off" if m.endswith(".off") else "auto"
+    rows = pg.sql("SELECT phks_signature_from_mesh(decode('%s', 'hex'), "
+                  "'%s');" % (mesh_hex, fmt))
+    check(rows[0][0] == pgutil.hexfile(s),
+          "phks_signature_from_mesh(%s) equals the tool's blob" %
+          os.path.basename(m))
+err = pg.error("SELECT phks_signature_from_mesh('\\x4f46460a'::bytea);")
+check("ERROR" in err and "phks_signature_from_mesh" in err,
+      "a bad mesh: %s" % err)
+err = pg.error("SELECT phks_signature_from_mesh('\\x00'::bytea, 'xyz');")
+check("unknown format" in err, "an unknown format: %s" % err)
+# Canceled by statement_timeout inside a computation, without a leak or a
+# crash (the library is stopped by its progress callback).
+big = max(meshes, key=os.path.getsize)
+with open(big, "rb") as f:
+    big_hex = f.read().hex()
+err = pg.error("SET statement_timeout = '50ms'; SELECT "
+               "phks_signature_from_mesh(decode('%s', 'hex'));" % big_hex)
+check("canceling statement" in err, "statement_timeout cancels: %s" % err)
+check(pg.sql("SELECT 1;") == [["1"]], "the server survives")
+
+pg.stop()
+print("%d failures (%.1f s)" % (len(failures), time.time() - t0))
+sys.exit(1 if failures else 0)
