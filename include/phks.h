@@ -188,6 +188,25 @@ typedef enum phks_hks_scaling {
     PHKS_HKS_SCALING_LOCAL_AREA = 2
 } phks_hks_scaling;
 
+/* Where the operator takes its quadrature (its sum over the surface). */
+typedef enum phks_quadrature {
+    /* At the vertices, each weighted by a third of the area of its
+     * triangles (the paper). Where vertices lie farther apart than the
+     * kernel's width sqrt(4 tau) (a CAD part's flat face as two long
+     * triangles) the kernel does not reach across and heat does not
+     * cross the face: the signature describes the tessellation. */
+    PHKS_QUADRATURE_VERTICES = 0,
+    /* Also inside every triangle whose longest edge exceeds sqrt(4 tau)
+     * (unit box): it is cut into s x s sub-triangles, s = ceil(longest
+     * edge / sqrt(4 tau)), whose corners carry a third of their area each.
+     * The operator is built on these points and its eigenvectors are read
+     * at the vertices (which are among them): vertex ids stay the input's
+     * and no point is visible outside the library. A mesh without such a
+     * triangle gets the same bits as with VERTICES (docs/method.md
+     * section 13). Meshes on the HKS-simp path keep the vertices. */
+    PHKS_QUADRATURE_TRIANGLES = 1
+} phks_quadrature;
+
 typedef enum phks_solver {
     /* Dense LAPACK for small meshes, block Lanczos above. */
     PHKS_SOLVER_AUTO = 0,
@@ -283,7 +302,10 @@ typedef struct phks_options {
                                 lands within a few percent; more is
                                 closer to exact, and slower): 10000;
                                 16..10^8                                 */
-    uint32_t reserved32;     /* zero                                     */
+    int32_t quadrature;      /* phks_quadrature: VERTICES (the paper's;
+                                TRIANGLES makes a coarsely triangulated
+                                face look like a finely meshed one,
+                                docs/method.md section 13)               */
     uint64_t reserved[21];   /* zero; room for fields of later versions  */
 } phks_options;
 
