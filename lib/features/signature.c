@@ -252,7 +252,7 @@ static phks_status from_spectrum(const phks_mesh *mesh,
     if (st == PHKS_OK && !given &&
         (tapers(mesh, opt) || opt->hks_scaling == PHKS_HKS_SCALING_LOCAL_AREA)) {
         phks__span at = {opt, PHKS_STAGE_PERSISTENCE, 0, SCALE_SPAN};
-        st = phks__unit_mesh_init(mesh, (phks_box)opt->box, at, &own);
+        st = phks__unit_mesh_for(mesh, opt, at, &own);
         from = SCALE_SPAN;
     }
     if (st == PHKS_OK)
@@ -336,7 +336,7 @@ phks_status phks_signature_compute(const phks_mesh *mesh,
     phks__span at = {&opt, PHKS_STAGE_OPERATOR, 0, PHKS__UNIT_MESH_SPAN};
     st = phks__progress(&opt, PHKS_STAGE_OPERATOR, 0);
     if (st == PHKS_OK)
-        st = phks__unit_mesh_init(mesh, (phks_box)opt.box, at, &um);
+        st = phks__unit_mesh_for(mesh, &opt, at, &um);
     if (st != PHKS_OK)
         return st;
     st = phks__spectrum_compute(&um, &opt, &spec);

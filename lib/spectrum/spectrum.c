@@ -367,7 +367,7 @@ phks_status phks_spectrum_compute(const phks_mesh *mesh,
     phks__span at = {&opt, PHKS_STAGE_OPERATOR, 0, PHKS__UNIT_MESH_SPAN};
     st = phks__progress(&opt, PHKS_STAGE_OPERATOR, 0);
     if (st == PHKS_OK)
-        st = phks__unit_mesh_init(mesh, (phks_box)opt.box, at, &um);
+        st = phks__unit_mesh_for(mesh, &opt, at, &um);
     if (st != PHKS_OK)
         return st;
     st = phks__spectrum_compute(&um, &opt, out);
