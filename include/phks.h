@@ -476,7 +476,12 @@ PHKS_API const double *phks_spectrum_eigenvector(const phks_spectrum *spectrum,
                                                  size_t i);
 /* The diagonal of M (sample_count values): the inner product under which
  * the eigenvectors are orthonormal. With HKS-simp, a sample's entry is the
- * area it stands for (times its kernel density for the random walk). */
+ * area it stands for (times its kernel density for the random walk).
+ * With PHKS_QUADRATURE_TRIANGLES on a mesh with long triangles the
+ * eigenvectors are those of the quadrature points' operator read at the
+ * vertices, orthonormal under the points' mass, and a vertex's entry is
+ * the mass of the points it interpolates, shared by their barycentric
+ * weights (docs/method.md section 13): the total is the same. */
 PHKS_API const double *phks_spectrum_mass(const phks_spectrum *spectrum);
 /* HKS_t(x) = sum_i exp(-t lambda_i) phi_i(x)^2 for every vertex x, into out
  * (vertex_count values). t is absolute time on the unit-box mesh (t = 5 tau

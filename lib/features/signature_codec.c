@@ -94,9 +94,15 @@ static double get_f64(const unsigned char **p)
     return x;
 }
 
+/* The oldest format that holds sig's options (see the top comment). */
+static unsigned format_of(const phks_signature *sig)
+{
+    return sig->options.quadrature != PHKS_QUADRATURE_VERTICES ? FORMAT : 2;
+}
+
 size_t phks_signature_encoded_size(const phks_signature *sig)
 {
-    return sig ? blob_size(FORMAT, sig->length, sig->count) : 0;
+    return sig ? blob_size(format_of(sig), sig->length, sig->count) : 0;
 }
 
 phks_status phks_signature_encode(const phks_signature *sig, void *buffer,
@@ -105,8 +111,7 @@ phks_status phks_signature_encode(const phks_signature *sig, void *buffer,
     if (!sig || !size || (!buffer && capacity))
         return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "phks_signature_encode: NULL argument");
-    const unsigned format =
-        sig->options.quadrature != PHKS_QUADRATURE_VERTICES ? 3 : 2;
+    const unsigned format = format_of(sig);
     size_t need = blob_size(format, sig->length, sig->count);
     *size = need;
     if (capacity < need)
