@@ -74,6 +74,10 @@ def test_options_are_keywords_with_the_c_defaults(creature_mesh,
     assert len(a) <= 5 and a.vector_length == 3
     assert a.options["operator_kind"] == "literal"
     assert a.options["scales"] == (5, 50, 500)
+    q = phks.signature(creature_mesh, quadrature="triangles", feature_count=5)
+    assert q.options["quadrature"] == "triangles"
+    assert phks.signature(creature_mesh, quadrature=1,
+                          feature_count=5).options == q.options
 
 
 def test_bad_options(creature_mesh):
