@@ -87,8 +87,8 @@ static void add_weight(phks__quadrature *q, size_t i, double a)
         q->area[i] += a;
 }
 
-/* Stores point i: barycentric weights bary (over corners c) of triangle
- * corners, position from them, unless it is a vertex. */
+/* Stores point i (when filling, and unless it is a vertex): its corners,
+ * its barycentric weights on them, and the position they give. */
 static void put_point(phks__quadrature *q, const phks_mesh *mesh, size_t i,
                       const uint32_t corner[3], const double bary[3])
 {
@@ -244,9 +244,8 @@ phks_status phks__quadrature_build(const phks__unit_mesh *um,
     size_t ne = mesh->edge_count;
     layout_ctx l = {mesh, s, phks__calloc(ne ? ne : 1, sizeof *l.edge_s),
                     phks__calloc(ne ? ne : 1, sizeof *l.edge_base), n};
-    size_t *grid = phks__malloc_array((size_t)(smax + 1) * (smax + 2) / 2,
-                                      sizeof *grid);
-    if (!l.edge_s || !l.edge_base || !grid) {
+    size_t *grid = NULL;
+    if (!l.edge_s || !l.edge_base) {
         st = phks__fail_oom("quadrature");
         goto done;
     }
@@ -265,11 +264,13 @@ phks_status phks__quadrature_build(const phks__unit_mesh *um,
     }
     q->count = l.next;
     size_t extra = q->count - n;
+    /* the point indices of one triangle's grid, row by row */
+    grid = phks__malloc_array((size_t)(smax + 1) * (smax + 2) / 2, sizeof *grid);
     q->xyz = phks__malloc_array(q->count, 3 * sizeof *q->xyz);
     q->area = phks__calloc(q->count, sizeof *q->area);
     q->corner = phks__malloc_array(extra, 3 * sizeof *q->corner);
     q->bary = phks__malloc_array(extra, 3 * sizeof *q->bary);
-    if (!q->xyz || !q->area || !q->corner || !q->bary) {
+    if (!grid || !q->xyz || !q->area || !q->corner || !q->bary) {
         st = phks__fail_oom("quadrature");
         goto done;
     }
