@@ -201,9 +201,14 @@ typedef enum phks_quadrature {
      * edge / sqrt(4 tau)), whose corners carry a third of their area each.
      * The operator is built on these points and its eigenvectors are read
      * at the vertices (which are among them): vertex ids stay the input's
-     * and no point is visible outside the library. A mesh without such a
-     * triangle gets the same bits as with VERTICES (docs/method.md
-     * section 13). Meshes on the HKS-simp path keep the vertices. */
+     * and no point is visible outside the library. The local areas of
+     * PHKS_HKS_SCALING_LOCAL_AREA and the principal box integrate over the
+     * triangles too. A mesh without such a triangle gets the same bits as
+     * with VERTICES (docs/method.md section 13). The points can be many
+     * times the vertices (9 x on some of PSB's Bearing models) and the
+     * solve is exact on all of them: time and memory grow with them
+     * (docs/benchmarks.md). Meshes on the HKS-simp path keep the
+     * vertices' operator. */
     PHKS_QUADRATURE_TRIANGLES = 1
 } phks_quadrature;
 

@@ -41,8 +41,10 @@ phks_status phks_options_init(phks_options *options)
     options->tolerance = 1e-10;
     options->simplify_above = 25000;
     options->simplify_target = 10000;
-    /* The vertices' quadrature until retrieval is measured with the
-     * triangles' (docs/retrieval.md). */
+    /* The vertices' quadrature: the triangles' does not make retrieval
+     * worse (docs/retrieval.md), but costs time in proportion to the
+     * points it adds, up to 18 x on PSB's coarsest Bearing models
+     * (docs/benchmarks.md). */
     options->quadrature = PHKS_QUADRATURE_VERTICES;
     return PHKS_OK;
 }
