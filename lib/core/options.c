@@ -43,7 +43,7 @@ phks_status phks_options_init(phks_options *options)
     options->simplify_target = 10000;
     /* The vertices' quadrature: the triangles' does not make retrieval
      * worse (docs/retrieval.md), but costs time in proportion to the
-     * points it adds, up to 18 x on PSB's coarsest Bearing models
+     * points it adds, up to 22 x on PSB's coarsest Bearing models
      * (docs/benchmarks.md). */
     options->quadrature = PHKS_QUADRATURE_VERTICES;
     return PHKS_OK;
