@@ -188,6 +188,30 @@ typedef enum phks_hks_scaling {
     PHKS_HKS_SCALING_LOCAL_AREA = 2
 } phks_hks_scaling;
 
+/* Where the operator takes its quadrature (its sum over the surface). */
+typedef enum phks_quadrature {
+    /* At the vertices, each weighted by a third of the area of its
+     * triangles (the paper). Where vertices lie farther apart than the
+     * kernel's width sqrt(4 tau) (a CAD part's flat face as two long
+     * triangles) the kernel does not reach across and heat does not
+     * cross the face: the signature describes the tessellation. */
+    PHKS_QUADRATURE_VERTICES = 0,
+    /* Also inside every triangle whose longest edge exceeds sqrt(4 tau)
+     * (unit box): it is cut into s x s sub-triangles, s = ceil(longest
+     * edge / sqrt(4 tau)), whose corners carry a third of their area each.
+     * The operator is built on these points and its eigenvectors are read
+     * at the vertices (which are among them): vertex ids stay the input's
+     * and no point is visible outside the library. The local areas of
+     * PHKS_HKS_SCALING_LOCAL_AREA and the principal box integrate over the
+     * triangles too. A mesh without such a triangle gets the same bits as
+     * with VERTICES (docs/method.md section 13). The points can be many
+     * times the vertices (9 x on some of PSB's Bearing models) and the
+     * solve is exact on all of them: time and memory grow with them
+     * (docs/benchmarks.md). Meshes on the HKS-simp path keep the
+     * vertices' operator. */
+    PHKS_QUADRATURE_TRIANGLES = 1
+} phks_quadrature;
+
 typedef enum phks_solver {
     /* Dense LAPACK for small meshes, block Lanczos above. */
     PHKS_SOLVER_AUTO = 0,
@@ -283,7 +307,10 @@ typedef struct phks_options {
                                 lands within a few percent; more is
                                 closer to exact, and slower): 10000;
                                 16..10^8                                 */
-    uint32_t reserved32;     /* zero                                     */
+    int32_t quadrature;      /* phks_quadrature: VERTICES (the paper's;
+                                TRIANGLES makes a coarsely triangulated
+                                face look like a finely meshed one,
+                                docs/method.md section 13)               */
     uint64_t reserved[21];   /* zero; room for fields of later versions  */
 } phks_options;
 
@@ -454,7 +481,12 @@ PHKS_API const double *phks_spectrum_eigenvector(const phks_spectrum *spectrum,
                                                  size_t i);
 /* The diagonal of M (sample_count values): the inner product under which
  * the eigenvectors are orthonormal. With HKS-simp, a sample's entry is the
- * area it stands for (times its kernel density for the random walk). */
+ * area it stands for (times its kernel density for the random walk).
+ * With PHKS_QUADRATURE_TRIANGLES on a mesh with long triangles the
+ * eigenvectors are those of the quadrature points' operator read at the
+ * vertices, orthonormal under the points' mass, and a vertex's entry is
+ * the mass of the points it interpolates, shared by their barycentric
+ * weights (docs/method.md section 13): the total is the same. */
 PHKS_API const double *phks_spectrum_mass(const phks_spectrum *spectrum);
 /* HKS_t(x) = sum_i exp(-t lambda_i) phi_i(x)^2 for every vertex x, into out
  * (vertex_count values). t is absolute time on the unit-box mesh (t = 5 tau

@@ -385,6 +385,21 @@ run "$phks" --hks-scaling local-area db query t.db b.off -k 1; expect_rc 0 \
 run "$phks" --hks-scaling none signature a.off -o none.sig; expect_rc 0
 run "$phks" db add t.db none.sig; expect_rc 1 "db add of an incompatible blob"
 expect_err "^phks: none.sig: .*(hks_scaling 0 against 2); phks option --hks-scaling: none against local-area"
+# --quadrature: a box of 12 triangles (its faces far longer than the
+# kernel), the option recorded, refused against a database made without.
+printf 'OFF\n8 12 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n0 0 1\n1 0 1\n1 1 1\n0 1 1\n3 0 2 1\n3 0 3 2\n3 4 5 6\n3 4 6 7\n3 0 1 5\n3 0 5 4\n3 1 2 6\n3 1 6 5\n3 2 3 7\n3 2 7 6\n3 3 0 4\n3 3 4 7\n' > box.off
+run "$phks" --quadrature triangles signature box.off --json; expect_rc 0 \
+    "signature --quadrature triangles"
+expect_out '"quadrature": "triangles"'
+run "$phks" --quadrature bogus signature box.off; expect_rc 2 \
+    "--quadrature bogus"
+expect_err "^phks: --quadrature: bad or missing value bogus"
+run "$phks" --quadrature triangles db query t.db box.off; expect_rc 1 \
+    "db query --quadrature triangles against a database made without"
+expect_err "^phks: t.db: --quadrature triangles given, .* --quadrature vertices"
+run "$phks" --quadrature triangles signature box.off -o q.sig; expect_rc 0
+run "$phks" match q.sig box.off; expect_rc 1 "match of blobs made with other quadratures"
+expect_err "(quadrature 1 against 0); phks option --quadrature: triangles against vertices"
 # Blobs, directories, duplicates.
 mkdir -p tree/sub tree/sub/deeper
 cp a.off tree/sub/z.off; cp a.sig tree/a.sig; cp b.off tree/sub/deeper/b.off

@@ -117,6 +117,54 @@ START_TEST(format_1_still_reads)
 }
 END_TEST
 
+/* Format 3: written only with PHKS_QUADRATURE_TRIANGLES, its field at
+ * offset 64 and the rest 4 bytes later; without the option the same bytes
+ * as format 2, which decodes with quadrature 0 and scores against a new
+ * signature made without it. */
+START_TEST(format_3_only_with_quadrature)
+{
+    phks_signature *sig = make(1, 2);
+    size_t size;
+    unsigned char *two = encode(sig, &size);
+    ck_assert_uint_eq(two[4], 2);
+    ck_assert_uint_eq(size, 64 + 15 * 8 + 4 + (4 + 32 + 15 * 8) + 4);
+    sig->options.quadrature = PHKS_QUADRATURE_TRIANGLES;
+    size_t size3;
+    unsigned char *three = encode(sig, &size3);
+    ck_assert_uint_eq(size3, size + 4);
+    const unsigned char head[8] = {'P', 'H', 'K', 'S', 3, 0, 0, 0};
+    ck_assert_mem_eq(three, head, 8);
+    ck_assert_mem_eq(three + 8, two + 8, 56);
+    const unsigned char quadrature[4] = {1, 0, 0, 0};
+    ck_assert_mem_eq(three + 64, quadrature, 4);
+    ck_assert_mem_eq(three + 68, two + 64, size - 64 - 4);
+    phks_signature *back3, *back2;
+    ck_assert_int_eq(phks_signature_decode(three, size3, &back3), PHKS_OK);
+    ck_assert_int_eq(phks_signature_decode(two, size, &back2), PHKS_OK);
+    ck_assert_int_eq(back3->options.quadrature, PHKS_QUADRATURE_TRIANGLES);
+    ck_assert_int_eq(back2->options.quadrature, PHKS_QUADRATURE_VERTICES);
+    ck_assert(phks__options_comparable(&back3->options, &sig->options));
+    double score;
+    ck_assert_int_eq(phks_score(back2, back3, &score), PHKS_ERROR_INCOMPATIBLE);
+    sig->options.quadrature = PHKS_QUADRATURE_VERTICES;
+    ck_assert_int_eq(phks_score(back2, sig, &score), PHKS_OK);
+    ck_assert_double_eq(score, 0);
+    /* an unknown quadrature is refused like any impossible option */
+    three[64] = 7;
+    uint32_t crc = phks__crc32(three, size3 - 4);
+    for (int i = 0; i < 4; i++)
+        three[size3 - 4 + i] = (unsigned char)(crc >> (8 * i));
+    phks_signature *bad = (phks_signature *)1;
+    ck_assert_int_eq(phks_signature_decode(three, size3, &bad), PHKS_ERROR_CORRUPT);
+    ck_assert_ptr_null(bad);
+    phks_signature_free(back2);
+    phks_signature_free(back3);
+    phks_signature_free(sig);
+    free(two);
+    free(three);
+}
+END_TEST
+
 START_TEST(small_buffer_reports_the_size)
 {
     phks_signature *sig = make(3, 3);
@@ -154,7 +202,7 @@ START_TEST(every_damage_is_refused)
         ck_assert(st == PHKS_ERROR_TRUNCATED || st == PHKS_ERROR_CORRUPT);
     }
     memcpy(copy, blob, size);
-    copy[4] = 3; /* a newer format */
+    copy[4] = 4; /* a newer format */
     ck_assert_int_eq(phks_signature_decode(copy, size, &out),
                      PHKS_ERROR_UNSUPPORTED_VERSION);
     ck_assert_int_eq(phks_signature_decode(NULL, size, &out),
@@ -276,6 +324,7 @@ int main(void)
     tcase_add_test(c, round_trip_is_exact);
     tcase_add_test(c, layout_is_little_endian);
     tcase_add_test(c, format_1_still_reads);
+    tcase_add_test(c, format_3_only_with_quadrature);
     tcase_add_test(c, small_buffer_reports_the_size);
     tcase_add_test(c, every_damage_is_refused);
     tcase_add_test(c, valid_checksum_impossible_numbers);

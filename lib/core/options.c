@@ -41,6 +41,11 @@ phks_status phks_options_init(phks_options *options)
     options->tolerance = 1e-10;
     options->simplify_above = 25000;
     options->simplify_target = 10000;
+    /* The vertices' quadrature: the triangles' does not make retrieval
+     * worse (docs/retrieval.md), but costs time in proportion to the
+     * points it adds, up to 22 x on PSB's coarsest Bearing models
+     * (docs/benchmarks.md). */
+    options->quadrature = PHKS_QUADRATURE_VERTICES;
     return PHKS_OK;
 }
 
@@ -113,6 +118,11 @@ phks_status phks__options_resolve(const phks_options *user, phks_options *out)
         return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "options: unknown hks_scaling %d",
                          (int)out->hks_scaling);
+    if (out->quadrature != PHKS_QUADRATURE_VERTICES &&
+        out->quadrature != PHKS_QUADRATURE_TRIANGLES)
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
+                         "options: unknown quadrature %d",
+                         (int)out->quadrature);
     if (out->threads > 1024)
         return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "options: threads %u above 1024", out->threads);
@@ -176,6 +186,7 @@ static const struct {
     {"eigen_count", offsetof(phks_options, eigen_count), FIELD_UINT32, true},
     {"operator_kind", offsetof(phks_options, operator_kind), FIELD_INT32, true},
     {"box", offsetof(phks_options, box), FIELD_INT32, true},
+    {"quadrature", offsetof(phks_options, quadrature), FIELD_INT32, true},
     {"feature_count", offsetof(phks_options, feature_count), FIELD_UINT32, false},
     {"scale_count", offsetof(phks_options, scale_count), FIELD_UINT32, false},
     {"feature_scale", offsetof(phks_options, feature_scale), FIELD_DOUBLE, false},

@@ -80,6 +80,7 @@ static double hks_factor(const phks_spectrum *spec, const phks_options *opt,
 /* The local areas of features [begin, end), for phks__run_batched. */
 typedef struct {
     const phks__unit_mesh *um;
+    const phks__quadrature *quad; /* NULL: the vertex areas */
     const phks_signature *sig;
     const double *radius2;
     double *area; /* sig->count x sig->length */
@@ -88,9 +89,16 @@ typedef struct {
 static void areas_range(void *ctx, size_t begin, size_t end)
 {
     const areas_ctx *c = ctx;
-    for (size_t i = begin; i < end; i++)
-        phks__local_areas(c->um, c->sig->vertex[i], c->radius2, c->sig->length,
-                          c->area + i * c->sig->length);
+    for (size_t i = begin; i < end; i++) {
+        if (c->quad)
+            phks__quadrature_local_areas(c->quad, c->um->scale,
+                                         c->sig->vertex[i], c->radius2,
+                                         c->sig->length,
+                                         c->area + i * c->sig->length);
+        else
+            phks__local_areas(c->um, c->sig->vertex[i], c->radius2,
+                              c->sig->length, c->area + i * c->sig->length);
+    }
 }
 
 /* A_t of every feature point for PHKS_HKS_SCALING_LOCAL_AREA into area
@@ -104,11 +112,24 @@ static phks_status local_areas(const phks__unit_mesh *um,
                                const phks_signature *sig,
                                const double *radius2, double *area)
 {
-    areas_ctx c = {um, sig, radius2, area};
+    /* A_t is a quadrature of the surface too: with
+     * PHKS_QUADRATURE_TRIANGLES the corner of a face of two long triangles
+     * has the area of the face within sqrt(4t) around it, not the third
+     * of the whole face its vertex carries (docs/method.md section 13). */
+    phks__quadrature quad = {0};
+    if (opt->quadrature == PHKS_QUADRATURE_TRIANGLES) {
+        phks_status st = phks__quadrature_build(um, opt, &quad);
+        if (st != PHKS_OK)
+            return st;
+    }
+    areas_ctx c = {um, quad.count > quad.vertex_count ? &quad : NULL, sig,
+                   radius2, area};
     unsigned threads = phks__thread_count(opt);
     phks__span at = {opt, PHKS_STAGE_PERSISTENCE, 0.95, 0.05};
-    return phks__run_batched(sig->count, threads, areas_range, &c, at,
-                             (sig->count + threads - 1) / threads);
+    phks_status st = phks__run_batched(sig->count, threads, areas_range, &c,
+                                       at, (sig->count + threads - 1) / threads);
+    phks__quadrature_release(&quad);
+    return st;
 }
 
 /* The feature vectors of sig's points: HKS at each time scale, scaled as
@@ -231,7 +252,7 @@ static phks_status from_spectrum(const phks_mesh *mesh,
     if (st == PHKS_OK && !given &&
         (tapers(mesh, opt) || opt->hks_scaling == PHKS_HKS_SCALING_LOCAL_AREA)) {
         phks__span at = {opt, PHKS_STAGE_PERSISTENCE, 0, SCALE_SPAN};
-        st = phks__unit_mesh_init(mesh, (phks_box)opt->box, at, &own);
+        st = phks__unit_mesh_for(mesh, opt, at, &own);
         from = SCALE_SPAN;
     }
     if (st == PHKS_OK)

@@ -7,13 +7,18 @@
  *   f64 tau  f64 cutoff  u32 eigen_count  u32 feature_count
  *   f64 feature_scale  u32 operator  u32 box  u32 scale_count
  *   (format 2 on:) f64 boundary_margin  u32 hks_scaling
+ *   (format 3 on:) u32 quadrature
  *   f64 scales[scale_count]
  *   u32 count, then per feature:
  *     u32 vertex  f64 x y z  f64 persistence  f64 vector[scale_count]
  *   u32 CRC-32 of every byte before it
  * A reader refuses a format number above its own rather than guess, and
  * reads every older one: format 1 blobs predate the two format-2 fields and
- * were made with them zero.
+ * were made with them zero, format 2 ones predate the quadrature (0, the
+ * vertices'). The writer uses the oldest format that holds the options:
+ * format 2 while quadrature is 0, so that a signature made without the
+ * option has the bytes it had before format 3 existed (and older readers
+ * still read it).
  */
 #include "features/features.h"
 
@@ -21,14 +26,16 @@
 #include <stdio.h>
 #include <string.h>
 
-#define FORMAT 2
+#define FORMAT 3
 #define HEADER_SIZE_1 (4 + 2 + 2 + 8 + 8 + 4 + 4 + 8 + 4 + 4 + 4)
 #define FORMAT_2_FIELDS (8 + 4)
+#define FORMAT_3_FIELDS 4
 #define FEATURE_FIXED (4 + 3 * 8 + 8)
 
 static size_t header_size(unsigned format)
 {
-    return HEADER_SIZE_1 + (format >= 2 ? FORMAT_2_FIELDS : 0);
+    return HEADER_SIZE_1 + (format >= 2 ? FORMAT_2_FIELDS : 0) +
+           (format >= 3 ? FORMAT_3_FIELDS : 0);
 }
 
 static size_t blob_size(unsigned format, size_t scales, size_t count)
@@ -87,9 +94,15 @@ static double get_f64(const unsigned char **p)
     return x;
 }
 
+/* The oldest format that holds sig's options (see the top comment). */
+static unsigned format_of(const phks_signature *sig)
+{
+    return sig->options.quadrature != PHKS_QUADRATURE_VERTICES ? FORMAT : 2;
+}
+
 size_t phks_signature_encoded_size(const phks_signature *sig)
 {
-    return sig ? blob_size(FORMAT, sig->length, sig->count) : 0;
+    return sig ? blob_size(format_of(sig), sig->length, sig->count) : 0;
 }
 
 phks_status phks_signature_encode(const phks_signature *sig, void *buffer,
@@ -98,7 +111,8 @@ phks_status phks_signature_encode(const phks_signature *sig, void *buffer,
     if (!sig || !size || (!buffer && capacity))
         return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "phks_signature_encode: NULL argument");
-    size_t need = blob_size(FORMAT, sig->length, sig->count);
+    const unsigned format = format_of(sig);
+    size_t need = blob_size(format, sig->length, sig->count);
     *size = need;
     if (capacity < need)
         return phks__fail(PHKS_ERROR_BUFFER_TOO_SMALL,
@@ -107,7 +121,7 @@ phks_status phks_signature_encode(const phks_signature *sig, void *buffer,
     const phks_options *o = &sig->options;
     unsigned char *start = buffer, *p = start;
     memcpy(p, "PHKS", 4);
-    p = put_u16(p + 4, FORMAT);
+    p = put_u16(p + 4, (uint16_t)format);
     p = put_u16(p, 0);
     p = put_f64(p, o->tau);
     p = put_f64(p, o->cutoff);
@@ -119,6 +133,8 @@ phks_status phks_signature_encode(const phks_signature *sig, void *buffer,
     p = put_u32(p, o->scale_count);
     p = put_f64(p, o->boundary_margin);
     p = put_u32(p, (uint32_t)o->hks_scaling);
+    if (format >= 3)
+        p = put_u32(p, (uint32_t)o->quadrature);
     for (uint32_t s = 0; s < o->scale_count; s++)
         p = put_f64(p, o->scales[s]);
     p = put_u32(p, (uint32_t)sig->count);
@@ -203,6 +219,9 @@ phks_status phks_signature_decode(const void *buffer, size_t size,
         o.boundary_margin = get_f64(&p);
         o.hks_scaling = (int32_t)get_u32(&p);
     }
+    o.quadrature = PHKS_QUADRATURE_VERTICES;
+    if (format >= 3)
+        o.quadrature = (int32_t)get_u32(&p);
     if (o.scale_count < 1 || o.scale_count > PHKS_MAX_SCALES)
         return phks__fail(PHKS_ERROR_CORRUPT, "signature blob: %u scales",
                          o.scale_count);

@@ -42,6 +42,12 @@ phks_status phks__mesh_build(const double *xyz, size_t vertex_count,
                             const uint32_t *vertex_origin, phks_mesh **out);
 
 /* ---- the unit box and areas (unit_box.c, local_area.c, sym3_eigen.c) */
+/* PHKS_BOX_PRINCIPAL with the surface's second moments integrated
+ * exactly over each triangle rather than taken at its centroid: the axes
+ * of a box do not then depend on how its faces were triangulated. What
+ * PHKS_QUADRATURE_TRIANGLES uses for PHKS_BOX_PRINCIPAL (docs/method.md
+ * section 13); never a value of phks_options.box. */
+#define PHKS__BOX_PRINCIPAL_EXACT ((phks_box)-1)
 /* Scale factor s such that s * positions fit the unit box of `box`.
  * Progress through `at` every 2^18 triangles or vertices; returns
  * PHKS_ERROR_CANCELLED when the callback asks. */
@@ -70,6 +76,14 @@ typedef struct phks__unit_mesh {
 phks_status phks__unit_mesh_init(const phks_mesh *mesh, phks_box box,
                                  phks__span at, phks__unit_mesh *out);
 void phks__unit_mesh_release(phks__unit_mesh *u);
+/* Whether a triangle's longest edge, times scale, exceeds width. */
+bool phks__long_triangles(const phks_mesh *mesh, double scale, double width);
+/* phks__unit_mesh_init with opt's box; with PHKS_QUADRATURE_TRIANGLES,
+ * PHKS_BOX_PRINCIPAL and a triangle longer than sqrt(4 tau) in that box,
+ * the box again with PHKS__BOX_PRINCIPAL_EXACT (so that a mesh without
+ * long triangles keeps every bit). */
+phks_status phks__unit_mesh_for(const phks_mesh *mesh, const phks_options *opt,
+                                phks__span at, phks__unit_mesh *out);
 
 /* area[s] = the area (vertex_area summed) of the vertices within
  * straight-line distance sqrt(radius2[s]) of `vertex`, in the unit box of

@@ -46,7 +46,7 @@ static void scaled_corners(const phks_mesh *m, size_t t, double unit,
  * meshes at 1e100 from overflowing and at 1e-100 from underflowing. Two
  * passes over the triangles, reported as halves of rep's span. */
 static phks_status principal_axes(const phks_mesh *m, const phks__span *rep,
-                                  double axes[9])
+                                  bool exact, double axes[9])
 {
     double mean[3] = {0, 0, 0}, total = 0, big = 0;
     size_t n_t = m->triangle_count;
@@ -77,9 +77,27 @@ static phks_status principal_axes(const phks_mesh *m, const phks__span *rep,
         scaled_corners(m, t, unit, p);
         double a = phks__triangle_area(p[0], p[1], p[2]);
         centroid(p[0], p[1], p[2], g);
+        if (!exact) {
+            for (int i = 0; i < 3; i++)
+                for (int j = 0; j < 3; j++)
+                    cov[3 * i + j] += a * (g[i] - mean[i]) * (g[j] - mean[j]);
+            continue;
+        }
+        /* The integral of x x^T over a triangle with corners p_k (here
+         * about the mean) is A / 12 (sum_k p_k p_k^T + 9 g g^T): the
+         * centroid's term alone misses the spread within the triangle,
+         * which is all there is on a face of two long triangles. */
+        double q[4][3];
+        for (int d = 0; d < 3; d++) {
+            for (int k = 0; k < 3; k++)
+                q[k][d] = p[k][d] - mean[d];
+            q[3][d] = g[d] - mean[d];
+        }
         for (int i = 0; i < 3; i++)
             for (int j = 0; j < 3; j++)
-                cov[3 * i + j] += a * (g[i] - mean[i]) * (g[j] - mean[j]);
+                cov[3 * i + j] += a / 12 *
+                                  (q[0][i] * q[0][j] + q[1][i] * q[1][j] +
+                                   q[2][i] * q[2][j] + 9 * q[3][i] * q[3][j]);
     }
     for (int i = 0; i < 9; i++)
         if (!isfinite(cov[i]))
@@ -98,9 +116,9 @@ phks_status phks__unit_box_scale(const phks_mesh *m, phks_box box,
      * vertices (twice as many triangles as vertices). */
     phks__span r = at;
     phks_status st;
-    if (box == PHKS_BOX_PRINCIPAL) {
+    if (box == PHKS_BOX_PRINCIPAL || box == PHKS__BOX_PRINCIPAL_EXACT) {
         r = phks__span_part(at, 0, 2.0 / 3);
-        st = principal_axes(m, &r, axes);
+        st = principal_axes(m, &r, box == PHKS__BOX_PRINCIPAL_EXACT, axes);
         if (st != PHKS_OK)
             return st;
         r = phks__span_part(at, 2.0 / 3, 1);
@@ -161,6 +179,42 @@ phks_status phks__unit_mesh_init(const phks_mesh *mesh, phks_box box,
     if (st == PHKS_OK)
         st = phks__vertex_areas(mesh, out->scale,
                                 phks__span_part(at, 2.0 / 3, 1), out->area);
+    if (st != PHKS_OK)
+        phks__unit_mesh_release(out);
+    return st;
+}
+
+bool phks__long_triangles(const phks_mesh *m, double scale, double width)
+{
+    for (size_t t = 0; t < m->triangle_count; t++) {
+        const uint32_t *c = m->triangles + 3 * t;
+        for (int k = 0; k < 3; k++) {
+            const double *a = m->xyz + 3 * (size_t)c[k];
+            const double *b = m->xyz + 3 * (size_t)c[(k + 1) % 3];
+            double d2 = 0;
+            for (int d = 0; d < 3; d++)
+                d2 += (b[d] - a[d]) * (b[d] - a[d]);
+            if (sqrt(d2) * scale > width)
+                return true;
+        }
+    }
+    return false;
+}
+
+phks_status phks__unit_mesh_for(const phks_mesh *mesh, const phks_options *opt,
+                                phks__span at, phks__unit_mesh *out)
+{
+    phks_status st = phks__unit_mesh_init(mesh, (phks_box)opt->box, at, out);
+    if (st != PHKS_OK || opt->quadrature != PHKS_QUADRATURE_TRIANGLES ||
+        opt->box != PHKS_BOX_PRINCIPAL ||
+        !phks__long_triangles(mesh, out->scale, sqrt(4 * opt->tau)))
+        return st;
+    /* The centroids' covariance of a face of two long triangles is not
+     * the face's: its axes, and the box, turn with the triangulation. */
+    st = phks__unit_box_scale(mesh, PHKS__BOX_PRINCIPAL_EXACT,
+                              PHKS__SPAN_NONE, &out->scale);
+    if (st == PHKS_OK)
+        st = phks__vertex_areas(mesh, out->scale, PHKS__SPAN_NONE, out->area);
     if (st != PHKS_OK)
         phks__unit_mesh_release(out);
     return st;

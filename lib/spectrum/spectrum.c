@@ -242,6 +242,50 @@ static phks_status compute_simplified(const phks__unit_mesh *um,
     return st;
 }
 
+/* PHKS_QUADRATURE_TRIANGLES on a mesh with long triangles: the operator
+ * of the quadrature points (vertices first), its eigenpairs, and their
+ * rows at the vertices (docs/method.md section 13). The points' masses are
+ * lumped onto the vertices that interpolate them, so spec->mass still sums
+ * to the total mass. */
+static phks_status compute_quadrature(const phks__unit_mesh *um,
+                                      const phks__quadrature *quad,
+                                      const phks_options *opt,
+                                      phks_spectrum *spec)
+{
+    phks__operator_matrix op;
+    phks__span at = {opt, PHKS_STAGE_OPERATOR, PHKS__UNIT_MESH_SPAN,
+                     1 - PHKS__UNIT_MESH_SPAN};
+    phks__points points = {quad->xyz, quad->count, um->scale, quad->area,
+                           NULL};
+    phks_status st = phks__operator_build_points(&points, opt, at, &op);
+    if (st != PHKS_OK)
+        return st;
+    size_t n = spec->n, m = quad->count;
+    spec->mass = phks__malloc_array(n, sizeof(double));
+    if (!spec->mass)
+        st = phks__fail_oom("spectrum");
+    if (st == PHKS_OK) {
+        phks__quadrature_lump(quad, op.mass, spec->mass);
+        st = solve(&op, opt->eigen_count < m ? opt->eigen_count : m,
+                   um->mesh->component_count, opt, spec);
+    }
+    if (st == PHKS_OK)
+        st = finish_vectors(spec, m, op.mass, opt);
+    phks__operator_release(&op);
+    if (st == PHKS_OK) {
+        /* the vertices' rows, column by column (column e moves down from
+         * e m to e n <= e m: front to back never overwrites a later one) */
+        for (size_t e = 0; e < spec->count; e++)
+            memmove(spec->vectors + e * n, spec->vectors + e * m,
+                    n * sizeof(double));
+        double *shrunk = phks__realloc_array(spec->vectors, n,
+                                             spec->count * sizeof(double));
+        if (shrunk)
+            spec->vectors = shrunk;
+    }
+    return st;
+}
+
 /* The whole mesh's operator and its eigenpairs, into spec (n set). */
 static phks_status compute_exact(const phks__unit_mesh *um,
                                  const phks_options *opt, phks_spectrum *spec)
@@ -249,6 +293,18 @@ static phks_status compute_exact(const phks__unit_mesh *um,
     phks__operator_matrix op;
     phks__span at = {opt, PHKS_STAGE_OPERATOR, PHKS__UNIT_MESH_SPAN,
                      1 - PHKS__UNIT_MESH_SPAN};
+    if (opt->quadrature == PHKS_QUADRATURE_TRIANGLES) {
+        phks__quadrature quad;
+        phks_status st = phks__quadrature_build(um, opt, &quad);
+        if (st != PHKS_OK)
+            return st;
+        if (quad.count > quad.vertex_count) {
+            st = compute_quadrature(um, &quad, opt, spec);
+            phks__quadrature_release(&quad);
+            return st;
+        }
+        /* no long triangle: the vertices' operator, the same bits */
+    }
     phks_status st = phks__operator_build(um, opt, at, &op);
     if (st != PHKS_OK)
         return st;
@@ -301,7 +357,7 @@ phks_status phks__spectrum_unit_mesh(const phks_mesh *mesh,
     phks__span at = {opt, PHKS_STAGE_OPERATOR, 0, PHKS__UNIT_MESH_SPAN};
     phks_status st = phks__progress(opt, PHKS_STAGE_OPERATOR, 0);
     return st == PHKS_OK
-               ? phks__unit_mesh_init(mesh, (phks_box)opt->box, at, um)
+               ? phks__unit_mesh_for(mesh, opt, at, um)
                : st;
 }
 

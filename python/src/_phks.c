@@ -52,6 +52,8 @@ static const char *const solver_names[] = {"auto", "lanczos", "arpack",
                                            "dense", NULL};
 static const char *const scaling_names[] = {"none", "mean", "local_area",
                                             NULL};
+static const char *const quadrature_names[] = {"vertices", "triangles",
+                                               NULL};
 static const char *const format_names[] = {"auto", "off", "obj", "ply", "stl",
                                            NULL};
 
@@ -257,6 +259,7 @@ static const option_field option_fields[] = {
     FIELD(tolerance, FIELD_DOUBLE, NULL),
     FIELD(boundary_margin, FIELD_DOUBLE, NULL),
     FIELD(hks_scaling, FIELD_ENUM, scaling_names),
+    FIELD(quadrature, FIELD_ENUM, quadrature_names),
     FIELD(simplify_above, FIELD_U32, NULL),
     FIELD(simplify_target, FIELD_U32, NULL),
 };

@@ -34,6 +34,7 @@ extern unsigned cli_explicit;
 #define CLI_SET_OPERATOR 0x1u
 #define CLI_SET_MARGIN 0x2u
 #define CLI_SET_SCALING 0x4u
+#define CLI_SET_QUADRATURE 0x8u
 
 /* ---- errors and usage (cli_util.c) -------------------------------------- */
 /* The calling thread's last error message (without a leading "what: "),
@@ -114,6 +115,7 @@ void cli_json_options(const phks_options *o);
 /* Option values in the tool's words. */
 const char *cli_scaling_name(int32_t hks_scaling);
 const char *cli_box_name(int32_t box);
+const char *cli_quadrature_name(int32_t quadrature);
 
 /* ---- databases (cli_db.c) ----------------------------------------------- */
 /* The options the signatures of a non-empty database were made with, into

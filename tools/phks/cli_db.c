@@ -86,6 +86,13 @@ int cli_db_options(phks_db *db, const char *path, phks_options *options)
                  cli_scaling_name(options->hks_scaling));
         snprintf(theirs, sizeof theirs, "%s",
                  cli_scaling_name(db_options.hks_scaling));
+    } else if ((cli_explicit & CLI_SET_QUADRATURE) &&
+               options->quadrature != db_options.quadrature) {
+        snprintf(name, sizeof name, "--quadrature");
+        snprintf(given, sizeof given, "%s",
+                 cli_quadrature_name(options->quadrature));
+        snprintf(theirs, sizeof theirs, "%s",
+                 cli_quadrature_name(db_options.quadrature));
     } else if ((cli_explicit & CLI_SET_MARGIN) &&
                options->boundary_margin != db_options.boundary_margin) {
         snprintf(name, sizeof name, "--boundary-margin");

@@ -65,6 +65,11 @@ const char *cli_scaling_name(int32_t hks_scaling)
                                                         : "none";
 }
 
+const char *cli_quadrature_name(int32_t quadrature)
+{
+    return quadrature == PHKS_QUADRATURE_TRIANGLES ? "triangles" : "vertices";
+}
+
 const char *cli_box_name(int32_t box)
 {
     return box == PHKS_BOX_AXIS_ALIGNED ? "axis-aligned" : "principal";
@@ -85,7 +90,9 @@ void cli_json_options(const phks_options *o)
                                 ? o->scale_count : PHKS_MAX_SCALES);
     fputs(", \"boundary_margin\": ", stdout);
     cli_json_number(o->boundary_margin);
-    printf(", \"hks_scaling\": \"%s\", \"simplify_above\": %u, "
-           "\"simplify_target\": %u}", cli_scaling_name(o->hks_scaling),
-           o->simplify_above, o->simplify_target);
+    printf(", \"hks_scaling\": \"%s\", \"quadrature\": \"%s\", "
+           "\"simplify_above\": %u, \"simplify_target\": %u}",
+           cli_scaling_name(o->hks_scaling),
+           cli_quadrature_name(o->quadrature), o->simplify_above,
+           o->simplify_target);
 }

@@ -39,6 +39,8 @@ static const char *value_name(const char *field, double v)
         return cli_operator_name((int32_t)v);
     if (strcmp(field, "hks_scaling") == 0)
         return cli_scaling_name((int32_t)v);
+    if (strcmp(field, "quadrature") == 0)
+        return cli_quadrature_name((int32_t)v);
     if (strcmp(field, "box") == 0)
         return cli_box_name((int32_t)v);
     snprintf(buf, sizeof buf, "%g", v);
@@ -69,6 +71,7 @@ static void reword(char *buf, size_t size)
         {"operator_kind", "--operator"},
         {"hks_scaling", "--hks-scaling"},
         {"boundary_margin", "--boundary-margin"},
+        {"quadrature", "--quadrature"},
     };
     for (size_t i = 0; i < sizeof fields / sizeof fields[0]; i++) {
         char pattern[64];
@@ -339,7 +342,8 @@ void cli_print_options(FILE *out, const char *prefix, const phks_options *o)
 {
     fprintf(out, "%soperator %s, box %s, tau %g, cutoff %g, eigenpairs %u, "
             "features %u at %g tau, %u scales (%g..%g tau), boundary margin "
-            "%g, HKS scaling %s, HKS-simp above %u vertices (target %u)\n",
+            "%g, HKS scaling %s, quadrature %s, HKS-simp above %u vertices "
+            "(target %u)\n",
             prefix, cli_operator_name(o->operator_kind),
             cli_box_name(o->box),
             o->tau, o->cutoff, o->eigen_count, o->feature_count,
@@ -347,5 +351,6 @@ void cli_print_options(FILE *out, const char *prefix, const phks_options *o)
             o->scales[o->scale_count ? o->scale_count - 1 : 0],
             o->boundary_margin,
             cli_scaling_name(o->hks_scaling),
+            cli_quadrature_name(o->quadrature),
             o->simplify_above, o->simplify_target);
 }

@@ -17,6 +17,8 @@ static const char usage_text[] =
     "  --operator literal|random-walk      heat operator (random-walk)\n"
     "  --boundary-margin X                 0..100 (2)\n"
     "  --hks-scaling none|mean|local-area  (local-area)\n"
+    "  --quadrature vertices|triangles     where the operator samples the\n"
+    "                                      surface (vertices)\n"
     "  --threads N                         0 = one per CPU (0)\n"
     "  --object NAME                       read only this OBJ object or group\n"
     "                                      (all, merged)\n"
@@ -43,7 +45,7 @@ static const char usage_text[] =
 
 static const char *const globals[] = {"--operator", "--threads",
                                       "--boundary-margin", "--hks-scaling",
-                                      "--object"};
+                                      "--quadrature", "--object"};
 
 /* Global options without a value. */
 static int take_flag(const char *arg)
@@ -95,6 +97,14 @@ static int set_global(const char *name, const char *v, phks_options *o)
             o->hks_scaling = PHKS_HKS_SCALING_MEAN;
         else if (strcmp(v, "local-area") == 0)
             o->hks_scaling = PHKS_HKS_SCALING_LOCAL_AREA;
+        else
+            return -1;
+    } else if (strcmp(name, "--quadrature") == 0) {
+        cli_explicit |= CLI_SET_QUADRATURE;
+        if (strcmp(v, "vertices") == 0)
+            o->quadrature = PHKS_QUADRATURE_VERTICES;
+        else if (strcmp(v, "triangles") == 0)
+            o->quadrature = PHKS_QUADRATURE_TRIANGLES;
         else
             return -1;
     } else {
