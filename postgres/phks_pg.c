@@ -402,6 +402,7 @@ Datum phks_pg_options(PG_FUNCTION_ARGS)
     appendStringInfo(&out, ", \"box\": %d", (int)o.box);
     json_number(&out, "boundary_margin", o.boundary_margin, 0);
     appendStringInfo(&out, ", \"hks_scaling\": %d", (int)o.hks_scaling);
+    appendStringInfo(&out, ", \"quadrature\": %d", (int)o.quadrature);
     appendStringInfoChar(&out, '}');
     /* json's representation is its text. */
     PG_RETURN_TEXT_P(cstring_to_text_with_len(out.data, out.len));
