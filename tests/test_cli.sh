@@ -325,6 +325,11 @@ assert all(f["position"][0] >= 3 for f in d["features"]), d' < out ||
     printf '{"asset":' > broken.gltf
     run "$phks" signature broken.gltf; expect_rc 1 "a broken glTF"
     expect_err "^phks: broken.gltf: assimp: "
+    mkdir scene && cp cube.gltf cube.off scene/
+    run "$phks" db add scene.db scene -j 1 --allow-duplicates; expect_rc 0 \
+        "db add of a folder"
+    run "$phks" db list scene.db; expect_rc 0 "db list"
+    expect_out "scene/cube.gltf"; expect_out "scene/cube.off"
     run "$phks" signature nowhere.glb; expect_rc 1 "a missing GLB"
     expect_err "^phks: nowhere.glb: No such file"
 fi

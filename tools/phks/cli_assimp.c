@@ -42,6 +42,25 @@ int cli_assimp_available(void)
 #endif
 }
 
+/* Common formats of assimp: what a directory walk picks up, and what is
+ * refused by name without assimp. */
+static const char *const common[] = {
+    ".gltf", ".glb", ".fbx", ".dae", ".3ds", ".x3d", ".x3db", ".blend",
+    ".3mf", ".amf", ".ase", ".ifc", ".lwo", ".lws", ".md2", ".md3",
+    ".md5mesh", ".ms3d", ".nff", ".ogex", ".smd", ".ac", ".b3d", ".cob",
+    ".dxf", ".irrmesh", ".lxo", ".xgl", ".zgl"};
+
+int cli_assimp_common(const char *path)
+{
+    const char *ext = extension(path);
+    if (!ext)
+        return 0;
+    for (size_t i = 0; i < sizeof common / sizeof common[0]; i++)
+        if (strcasecmp(ext, common[i]) == 0)
+            return 1;
+    return 0;
+}
+
 int cli_assimp_handles(const char *path)
 {
     size_t n = strlen(path);
@@ -51,22 +70,11 @@ int cli_assimp_handles(const char *path)
     for (size_t i = 0; i < sizeof own / sizeof own[0]; i++)
         if (has_suffix(path, n, own[i]))
             return 0;
-    const char *ext = extension(path);
-    if (!ext)
-        return 0;
 #ifdef PHKS_WITH_ASSIMP
-    return aiIsExtensionSupported(ext) == AI_TRUE;
+    const char *ext = extension(path);
+    return ext && aiIsExtensionSupported(ext) == AI_TRUE;
 #else
-    static const char *const common[] = {
-        ".gltf", ".glb", ".fbx", ".dae", ".3ds", ".x3d", ".x3db", ".blend",
-        ".3mf", ".amf", ".ase", ".ifc", ".lwo", ".lws", ".md2", ".md3",
-        ".md5mesh", ".ms3d", ".nff", ".ogex", ".q3o", ".raw", ".smd", ".x",
-        ".ac", ".b3d", ".cob", ".dxf", ".irr", ".irrmesh", ".lxo", ".mdl",
-        ".xgl", ".zgl", ".usd", ".usda", ".usdc", ".usdz"};
-    for (size_t i = 0; i < sizeof common / sizeof common[0]; i++)
-        if (strcasecmp(ext, common[i]) == 0)
-            return 1;
-    return 0;
+    return cli_assimp_common(path);
 #endif
 }
 

@@ -26,10 +26,14 @@
 int cli_assimp_available(void);
 /* 1 when path is for assimp: its extension is none of the library's own
  * (.off, .obj, .ply, .stl, each optionally followed by .gz) and names a
- * format that assimp reads (without assimp: one of a list of common ones,
- * so that the refusal can say why). Other names stay with phks_mesh_load,
+ * format that assimp reads (without assimp: cli_assimp_common, so that the
+ * refusal can say why). Other names stay with phks_mesh_load,
  * which recognises the content. */
 int cli_assimp_handles(const char *path);
+/* 1 when path ends in the extension of one of assimp's common formats
+ * (.gltf, .glb, .fbx, .dae, .3ds, .x3d, .blend, ...: the list in
+ * cli_assimp.c), whether or not the build has assimp. */
+int cli_assimp_common(const char *path);
 /* Reads the scene at path into *mesh: all its meshes merged into one shape,
  * or, with `object`, those of the nodes named so (and of their children)
  * and the meshes named so. Thread-safe. On success PHKS_OK; `note` (when
