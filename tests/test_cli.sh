@@ -218,7 +218,121 @@ assert [f["vertex"] for f in d["features"]] == ids' < out ||
 run "$phks" --object third signature two.obj; expect_rc 1 "--object third"
 expect_err "no object or group named third (it has: first, second)"
 run "$phks" --object first signature a.off; expect_rc 1 "--object on OFF"
-expect_err "applies to uncompressed OBJ files only"
+expect_err "applies to uncompressed OBJ files and to the formats read through assimp"
+
+# ---- glTF (and the other formats of assimp) ---------------------------------
+# A unit cube, 8 vertices and 12 triangles, as OFF and as glTF 2.0 with the
+# same vertex order: one buffer, embedded as base64, of 8 float32 positions
+# (96 bytes) and 36 uint16 indices (72 bytes).
+cat > cube.off <<'EOF'
+OFF
+8 12 0
+0 0 0
+1 0 0
+1 1 0
+0 1 0
+0 0 1
+1 0 1
+1 1 1
+0 1 1
+3 0 2 1
+3 0 3 2
+3 4 5 6
+3 4 6 7
+3 0 1 5
+3 0 5 4
+3 1 2 6
+3 1 6 5
+3 2 3 7
+3 2 7 6
+3 3 0 4
+3 3 4 7
+EOF
+cube_buffer=AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAACAPwAAgD8AAAAAAAAAAAAAgD8AAAAAAAAAAAAAAAAAAIA/AACAPwAAAAAAAIA/AACAPwAAgD8AAIA/AAAAAAAAgD8AAIA/AAACAAEAAAADAAIABAAFAAYABAAGAAcAAAABAAUAAAAFAAQAAQACAAYAAQAGAAUAAgADAAcAAgAHAAYAAwAAAAQAAwAEAAcA
+gltf_head='{"asset":{"version":"2.0"},"scene":0,
+"buffers":[{"byteLength":168,"uri":"data:application/octet-stream;base64,'$cube_buffer'"}],
+"bufferViews":[{"buffer":0,"byteOffset":0,"byteLength":96},
+               {"buffer":0,"byteOffset":96,"byteLength":72}],
+"accessors":[{"bufferView":0,"componentType":5126,"count":8,"type":"VEC3",
+              "min":[0,0,0],"max":[1,1,1]},
+             {"bufferView":1,"componentType":5123,"count":36,"type":"SCALAR"}],'
+cube_primitive='"primitives":[{"attributes":{"POSITION":0},"indices":1}]'
+cat > cube.gltf <<EOF
+$gltf_head
+"meshes":[{"name":"boxmesh",$cube_primitive}],
+"nodes":[{"name":"box","mesh":0}],
+"scenes":[{"nodes":[0]}]}
+EOF
+# Two meshes on two nodes, the second moved by 3 along x.
+cat > two.gltf <<EOF
+$gltf_head
+"meshes":[{"name":"cubeA",$cube_primitive},{"name":"cubeB",$cube_primitive}],
+"nodes":[{"name":"first","mesh":0},
+         {"name":"second","mesh":1,"translation":[3,0,0]}],
+"scenes":[{"nodes":[0,1]}]}
+EOF
+# The cube as GLB: the JSON without the uri, then the buffer, each padded
+# to 4 bytes.
+$py -c 'import base64, json, struct
+d = json.load(open("cube.gltf"))
+b = base64.b64decode(d["buffers"][0].pop("uri").split(",")[1])
+j = json.dumps(d).encode()
+j += b" " * (-len(j) % 4)
+b += bytes(-len(b) % 4)
+open("cube.glb", "wb").write(struct.pack("<III", 0x46546C67, 2,
+    28 + len(j) + len(b)) + struct.pack("<II", len(j), 0x4E4F534A) + j +
+    struct.pack("<II", len(b), 0x004E4942) + b)' || fail "writing cube.glb"
+run "$phks" signature cube.gltf --json
+if grep -q "built without assimp" err; then
+    expect_rc 1 "glTF without assimp"
+    expect_err "^phks: cube.gltf: built without assimp: cannot read .gltf$"
+    run "$phks" signature cube.glb; expect_rc 1 "GLB without assimp"
+    expect_err "built without assimp: cannot read .glb"
+    echo "cli: built without assimp: the glTF checks are skipped"
+else
+    expect_rc 0 "signature of cube.gltf"
+    [ -s err ] && fail "cube.gltf: a message"
+    sed 1d out > cube_gltf.json
+    run "$phks" signature cube.off --json; expect_rc 0 "signature of cube.off"
+    sed 1d out | cmp -s - cube_gltf.json ||
+        fail "cube.gltf's signature (vertex ids, numbers) is not cube.off's"
+    $py -c 'import json,sys; d=json.load(sys.stdin)
+assert d["vertices"] == 8 and d["triangles"] == 12, d' < out ||
+        fail "cube.gltf: not 8 vertices"
+    run "$phks" match cube.off cube.gltf --json; expect_rc 0 "match OFF, glTF"
+    $py -c 'import json,sys; assert json.load(sys.stdin)["score"] == 0' \
+        < out || fail "cube.gltf against cube.off: score not 0"
+    run "$phks" signature cube.glb -o glb.sig; expect_rc 0 "signature of .glb"
+    expect_out "8 vertices, 12 triangles"
+    run "$phks" match glb.sig cube.off; expect_rc 0 "match GLB, OFF"
+    expect_out "^score 0$"
+    run "$phks" signature two.gltf; expect_rc 0 "signature of two meshes"
+    expect_err "^phks: two.gltf: note: 2 meshes (first, second) merged into one shape; --object NAME reads one$"
+    expect_out "16 vertices, 24 triangles"
+    run "$phks" --object second signature two.gltf --json; expect_rc 0 \
+        "--object second (a node)"
+    [ -s err ] && fail "--object second: a note"
+    $py -c 'import json,sys; d=json.load(sys.stdin)
+assert d["vertices"] == 8, d
+assert all(f["position"][0] >= 3 for f in d["features"]), d' < out ||
+        fail "--object second: not the moved cube"
+    run "$phks" --object cubeA signature two.gltf; expect_rc 0 \
+        "--object cubeA (a mesh)"
+    expect_out "8 vertices, 12 triangles"
+    run "$phks" --object third signature two.gltf; expect_rc 1 \
+        "--object third in glTF"
+    expect_err "no node or mesh named third (it has: first, second, cubeA, cubeB)"
+    printf '{"asset":' > broken.gltf
+    run "$phks" signature broken.gltf; expect_rc 1 "a broken glTF"
+    expect_err "^phks: broken.gltf: assimp: "
+    mkdir scene && cp cube.gltf cube.off scene/
+    run "$phks" db add scene.db scene -j 1 --allow-duplicates; expect_rc 0 \
+        "db add of a folder"
+    run "$phks" db list scene.db; expect_rc 0 "db list"
+    expect_out "scene/cube.gltf"; expect_out "scene/cube.off"
+    run "$phks" signature nowhere.glb; expect_rc 1 "a missing GLB"
+    expect_err "^phks: nowhere.glb: No such file"
+fi
 
 # ---- match ------------------------------------------------------------------
 run "$phks" match a.off b.off; expect_rc 0 "match meshes"

@@ -27,6 +27,8 @@
 #include <string.h>
 
 #include "phks.h"
+/* tools/phks/cli_assimp.c, compiled in here too (python/meson.build). */
+#include "cli_assimp.h"
 
 /* ---------------------------------------------------------------------
  * Errors and enumerations
@@ -760,6 +762,11 @@ static PyTypeObject MeshType = {
     .tp_new = Mesh_new,
 };
 
+static PyObject *py_has_assimp(PyObject *self, PyObject *unused)
+{
+    return PyBool_FromLong(cli_assimp_available());
+}
+
 static PyObject *py_load(PyObject *self, PyObject *args)
 {
     PyObject *path;
@@ -768,6 +775,22 @@ static PyObject *py_load(PyObject *self, PyObject *args)
     phks_mesh *mesh = NULL;
     phks_status st;
     const char *p = PyBytes_AS_STRING(path);
+    if (cli_assimp_handles(p)) {
+        /* glTF, FBX, COLLADA, ...: through assimp, all meshes merged (the
+         * tool's code, tools/phks/cli_assimp.c). */
+        char err[1024];
+        Py_BEGIN_ALLOW_THREADS
+        st = cli_assimp_load(p, NULL, &mesh, NULL, 0, err, sizeof err);
+        Py_END_ALLOW_THREADS
+        if (st != PHKS_OK) {
+            char detail[1400];
+            snprintf(detail, sizeof detail, "%s: %s", p, err);
+            Py_DECREF(path);
+            return raise_status_detail(st, detail);
+        }
+        Py_DECREF(path);
+        return mesh_wrap(mesh);
+    }
     Py_BEGIN_ALLOW_THREADS
     st = phks_mesh_load(p, &mesh);
     Py_END_ALLOW_THREADS
@@ -2106,7 +2129,11 @@ static PyObject *py_status_string(PyObject *module, PyObject *arg)
 
 static PyMethodDef module_methods[] = {
     {"load", py_load, METH_VARARGS,
-     "load(path) -> Mesh: OFF, OBJ, PLY or STL, optionally gzipped."},
+     "load(path) -> Mesh: OFF, OBJ, PLY or STL, optionally gzipped; other "
+     "formats (glTF/GLB, FBX, COLLADA, ...) through assimp when built with "
+     "it, all meshes merged."},
+    {"_has_assimp", py_has_assimp, METH_NOARGS,
+     "_has_assimp() -> bool: whether load() reads formats through assimp."},
     {"load_memory", (PyCFunction)(void (*)(void))py_load_memory,
      METH_VARARGS | METH_KEYWORDS,
      "load_memory(data, format='auto') -> Mesh: a mesh file's bytes; format "

@@ -5,6 +5,7 @@
  * count the feature points next to the cut.
  */
 #include "cli_bench.h"
+#include "cli_assimp.h"
 #include "partial.h"
 
 #include <errno.h>
@@ -207,7 +208,15 @@ static phks_status compute(bench_plan *p, bench_item *it, uint64_t seed,
     phks_mesh *src = NULL, *mesh = NULL;
     piece pc = {0};
     char *cached = NULL;
-    phks_status st = phks_mesh_load(model->row->path, &src);
+    phks_status st;
+    if (cli_assimp_handles(model->row->path)) {
+        static _Thread_local char err[1024];
+        st = cli_assimp_load(model->row->path, NULL, &src, NULL, 0, err,
+                             sizeof err);
+        if (st != PHKS_OK)
+            *reason = err;
+    } else
+        st = phks_mesh_load(model->row->path, &src);
     if (st == PHKS_OK && it->kind == KIND_COMPLETE)
         mesh = src;
     else if (st == PHKS_OK)

@@ -4,9 +4,12 @@
  * shape, with a note on stderr, or cut down to the one named by the global
  * option --object NAME. The cut keeps every line but the faces of other
  * objects, so the vertex numbering stays the file's, and goes through
- * phks_mesh_load_memory.
+ * phks_mesh_load_memory. Other formats than the library's own (glTF, FBX,
+ * COLLADA, ...) go through assimp (cli_assimp.c), with the same merging,
+ * note and --object.
  */
 #include "cli.h"
+#include "cli_assimp.h"
 
 #include <ctype.h>
 #include <errno.h>
@@ -121,10 +124,23 @@ static size_t scan(const char *text, size_t size, const char *want,
 int cli_load_mesh(const char *path, phks_mesh **mesh)
 {
     *mesh = NULL;
+    if (cli_assimp_handles(path)) {
+        char note[640], err[1024];
+        phks_status st = cli_assimp_load(path, cli_object, mesh, note,
+                                         sizeof note, err, sizeof err);
+        if (st != PHKS_OK) {
+            cli_say(stderr, "phks: %s: %s\n", path, err);
+            return 1;
+        }
+        if (note[0])
+            cli_say(stderr, "phks: %s: note: %s; --object NAME reads one\n",
+                    path, note);
+        return 0;
+    }
     int is_obj = has_suffix(path, ".obj");
     if (!is_obj && cli_object) {
         cli_say(stderr, "phks: %s: --object applies to uncompressed OBJ "
-                "files only\n", path);
+                "files and to the formats read through assimp only\n", path);
         return 1;
     }
     if (!is_obj) {

@@ -204,9 +204,11 @@ int cli_render(int argc, char **argv, const phks_options *options)
             rc = cli_error(pic[i].path, "a signature blob: no mesh to draw");
             break;
         }
-        phks_status st = phks_mesh_load(pic[i].path, &pic[i].mesh);
-        if (st == PHKS_OK)
-            st = compute(&pic[i], options, regions, time);
+        if (cli_load_mesh(pic[i].path, &pic[i].mesh) != 0) {
+            rc = 1;
+            break;
+        }
+        phks_status st = compute(&pic[i], options, regions, time);
         if (st != PHKS_OK)
             rc = cli_fail(pic[i].path, st);
     }

@@ -8,6 +8,7 @@
  */
 #include "cli_render.h"
 #include "cli.h"
+#include "cli_assimp.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -23,7 +24,13 @@ static int draw_entry(cli_image *im, int x, int y, const char *path,
                       const phks_signature *sig, const unsigned char base[3])
 {
     phks_mesh *mesh;
-    if (cli_is_blob(path) || phks_mesh_load(path, &mesh) != PHKS_OK)
+    char err[1024];
+    if (cli_is_blob(path))
+        return -1;
+    if (cli_assimp_handles(path)
+            ? cli_assimp_load(path, cli_object, &mesh, NULL, 0, err,
+                              sizeof err) != PHKS_OK
+            : phks_mesh_load(path, &mesh) != PHKS_OK)
         return -1;
     size_t m = phks_mesh_triangle_count(mesh);
     unsigned char *rgb = malloc(3 * m);

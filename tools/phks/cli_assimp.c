@@ -1,0 +1,321 @@
+/*
+ * cli_assimp.c - meshes through assimp's C API for the `phks` tool and the
+ * Python module (cli_assimp.h).
+ */
+#include "cli_assimp.h"
+
+#include <errno.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+
+#ifdef PHKS_WITH_ASSIMP
+#include <assimp/cimport.h>
+#include <assimp/postprocess.h>
+#include <assimp/scene.h>
+#include <pthread.h>
+#endif
+
+static int has_suffix(const char *s, size_t n, const char *suffix)
+{
+    size_t m = strlen(suffix);
+    return n >= m && strncasecmp(s + n - m, suffix, m) == 0;
+}
+
+/* The extension of the file name, with its dot, or NULL. */
+static const char *extension(const char *path)
+{
+    const char *slash = strrchr(path, '/');
+    const char *name = slash ? slash + 1 : path;
+    const char *dot = strrchr(name, '.');
+    return dot && dot != name && dot[1] ? dot : NULL;
+}
+
+int cli_assimp_available(void)
+{
+#ifdef PHKS_WITH_ASSIMP
+    return 1;
+#else
+    return 0;
+#endif
+}
+
+/* Common formats of assimp: what a directory walk picks up, and what is
+ * refused by name without assimp. */
+static const char *const common[] = {
+    ".gltf", ".glb", ".fbx", ".dae", ".3ds", ".x3d", ".x3db", ".blend",
+    ".3mf", ".amf", ".ase", ".ifc", ".lwo", ".lws", ".md2", ".md3",
+    ".md5mesh", ".ms3d", ".nff", ".ogex", ".smd", ".ac", ".b3d", ".cob",
+    ".dxf", ".irrmesh", ".lxo", ".xgl", ".zgl"};
+
+int cli_assimp_common(const char *path)
+{
+    const char *ext = extension(path);
+    if (!ext)
+        return 0;
+    for (size_t i = 0; i < sizeof common / sizeof common[0]; i++)
+        if (strcasecmp(ext, common[i]) == 0)
+            return 1;
+    return 0;
+}
+
+int cli_assimp_handles(const char *path)
+{
+    size_t n = strlen(path);
+    if (has_suffix(path, n, ".gz"))
+        n -= 3;
+    static const char *const own[] = {".off", ".obj", ".ply", ".stl"};
+    for (size_t i = 0; i < sizeof own / sizeof own[0]; i++)
+        if (has_suffix(path, n, own[i]))
+            return 0;
+#ifdef PHKS_WITH_ASSIMP
+    const char *ext = extension(path);
+    return ext && aiIsExtensionSupported(ext) == AI_TRUE;
+#else
+    return cli_assimp_common(path);
+#endif
+}
+
+#ifdef PHKS_WITH_ASSIMP
+
+/* aiGetErrorString is one buffer for the process. */
+static pthread_mutex_t import_lock = PTHREAD_MUTEX_INITIALIZER;
+
+typedef struct gather {
+    const struct aiScene *scene;
+    const char *object;
+    double *xyz;
+    uint32_t *tri;
+    size_t nv, cap_v, nt, cap_t;
+    size_t meshes, matched;
+    char *names;   /* the merged meshes' names, "a, b, ..." */
+    size_t names_size, names_at;
+    int too_large, no_memory;
+} gather;
+
+static int grow(void **p, size_t *cap, size_t need, size_t item)
+{
+    if (need <= *cap)
+        return 0;
+    size_t cap2 = *cap ? *cap : 64;
+    while (cap2 < need)
+        cap2 *= 2;
+    void *q = realloc(*p, cap2 * item);
+    if (!q)
+        return -1;
+    *p = q;
+    *cap = cap2;
+    return 0;
+}
+
+static void add_name(gather *g, const char *name)
+{
+    if (!g->names || g->names_at + 1 >= g->names_size)
+        return;
+    size_t room = g->names_size - g->names_at;
+    int w;
+    if (g->meshes > 8)
+        return;
+    if (g->meshes == 8)
+        w = snprintf(g->names + g->names_at, room, ", ...");
+    else
+        w = snprintf(g->names + g->names_at, room, "%s%s",
+                     g->meshes > 1 ? ", " : "", *name ? name : "(unnamed)");
+    if (w > 0)
+        g->names_at += (size_t)w < room ? (size_t)w : room - 1;
+}
+
+/* m = a * b, 4 x 4 row-major. */
+static void multiply(const double a[16], const double b[16], double m[16])
+{
+    for (int i = 0; i < 4; i++)
+        for (int j = 0; j < 4; j++) {
+            double s = 0;
+            for (int k = 0; k < 4; k++)
+                s += a[4 * i + k] * b[4 * k + j];
+            m[4 * i + j] = s;
+        }
+}
+
+static void add_mesh(gather *g, const struct aiMesh *mesh,
+                     const double world[16], const char *name)
+{
+    size_t faces = 0;
+    for (unsigned f = 0; f < mesh->mNumFaces; f++)
+        faces += mesh->mFaces[f].mNumIndices == 3;
+    if (!faces || !mesh->mNumVertices)
+        return;
+    if (g->nv + mesh->mNumVertices > UINT32_MAX - 1) {
+        g->too_large = 1;
+        return;
+    }
+    if (grow((void **)&g->xyz, &g->cap_v, 3 * (g->nv + mesh->mNumVertices),
+             sizeof *g->xyz) != 0 ||
+        grow((void **)&g->tri, &g->cap_t, 3 * (g->nt + faces),
+             sizeof *g->tri) != 0) {
+        g->no_memory = 1;
+        return;
+    }
+    for (unsigned v = 0; v < mesh->mNumVertices; v++) {
+        double p[3] = {mesh->mVertices[v].x, mesh->mVertices[v].y,
+                       mesh->mVertices[v].z};
+        double *out = g->xyz + 3 * (g->nv + v);
+        for (int i = 0; i < 3; i++)
+            out[i] = world[4 * i] * p[0] + world[4 * i + 1] * p[1] +
+                     world[4 * i + 2] * p[2] + world[4 * i + 3];
+    }
+    for (unsigned f = 0; f < mesh->mNumFaces; f++) {
+        const struct aiFace *face = &mesh->mFaces[f];
+        if (face->mNumIndices != 3)
+            continue;
+        for (int i = 0; i < 3; i++)
+            g->tri[3 * g->nt + (size_t)i] =
+                (uint32_t)(g->nv + face->mIndices[i]);
+        g->nt++;
+    }
+    g->nv += mesh->mNumVertices;
+    g->meshes++;
+    add_name(g, name);
+}
+
+static void walk(gather *g, const struct aiNode *node, const double parent[16],
+                 int selected)
+{
+    const struct aiMatrix4x4 *t = &node->mTransformation;
+    const double local[16] = {t->a1, t->a2, t->a3, t->a4, t->b1, t->b2,
+                              t->b3, t->b4, t->c1, t->c2, t->c3, t->c4,
+                              t->d1, t->d2, t->d3, t->d4};
+    double world[16];
+    multiply(parent, local, world);
+    if (g->object && !selected && strcmp(node->mName.data, g->object) == 0)
+        selected = 1;
+    for (unsigned i = 0; i < node->mNumMeshes && !g->no_memory; i++) {
+        if (node->mMeshes[i] >= g->scene->mNumMeshes)
+            continue;
+        const struct aiMesh *mesh = g->scene->mMeshes[node->mMeshes[i]];
+        int take = !g->object || selected ||
+                   strcmp(mesh->mName.data, g->object) == 0;
+        if (take) {
+            g->matched++;
+            add_mesh(g, mesh, world,
+                     node->mName.length ? node->mName.data : mesh->mName.data);
+        }
+    }
+    for (unsigned i = 0; i < node->mNumChildren && !g->no_memory; i++)
+        walk(g, node->mChildren[i], world, selected);
+}
+
+/* The names of nodes with meshes, and of meshes, for "it has: ...". */
+static void list_names(const struct aiNode *node, char *buf, size_t size,
+                       size_t *at, int *count)
+{
+    if (node->mNumMeshes && node->mName.length && *count < 12 &&
+        *at + 1 < size) {
+        int w = snprintf(buf + *at, size - *at, "%s%s", *count ? ", " : "",
+                         node->mName.data);
+        if (w > 0)
+            *at += (size_t)w < size - *at ? (size_t)w : size - *at - 1;
+        ++*count;
+    }
+    for (unsigned i = 0; i < node->mNumChildren; i++)
+        list_names(node->mChildren[i], buf, size, at, count);
+}
+
+phks_status cli_assimp_load(const char *path, const char *object,
+                            phks_mesh **mesh, char *note, size_t note_size,
+                            char *err, size_t err_size)
+{
+    *mesh = NULL;
+    if (note && note_size)
+        note[0] = '\0';
+    FILE *f = fopen(path, "rb");
+    if (!f) {
+        snprintf(err, err_size, "%s", strerror(errno));
+        return PHKS_ERROR_IO;
+    }
+    fclose(f);
+    pthread_mutex_lock(&import_lock);
+    const struct aiScene *scene = aiImportFile(path,
+        aiProcess_Triangulate | aiProcess_JoinIdenticalVertices);
+    if (!scene || !scene->mRootNode) {
+        const char *why = aiGetErrorString();
+        snprintf(err, err_size, "assimp: %s",
+                 why && *why ? why : "no scene in the file");
+        if (scene)
+            aiReleaseImport(scene);
+        pthread_mutex_unlock(&import_lock);
+        return PHKS_ERROR_PARSE;
+    }
+    pthread_mutex_unlock(&import_lock);
+
+    char names[512];
+    names[0] = '\0';
+    gather g = {.scene = scene, .object = object, .names = names,
+                .names_size = sizeof names};
+    static const double identity[16] = {1, 0, 0, 0, 0, 1, 0, 0,
+                                        0, 0, 1, 0, 0, 0, 0, 1};
+    walk(&g, scene->mRootNode, identity, 0);
+    phks_status st = PHKS_OK;
+    if (g.no_memory) {
+        snprintf(err, err_size, "out of memory");
+        st = PHKS_ERROR_OUT_OF_MEMORY;
+    } else if (g.too_large) {
+        snprintf(err, err_size, "more than 2^32 - 2 vertices");
+        st = PHKS_ERROR_TOO_LARGE;
+    } else if (object && !g.matched) {
+        char list[400];
+        size_t at = 0;
+        int count = 0;
+        list[0] = '\0';
+        list_names(scene->mRootNode, list, sizeof list, &at, &count);
+        for (unsigned i = 0; i < scene->mNumMeshes && count < 24; i++)
+            if (scene->mMeshes[i]->mName.length && at + 1 < sizeof list) {
+                int w = snprintf(list + at, sizeof list - at, "%s%s",
+                                 count++ ? ", " : "",
+                                 scene->mMeshes[i]->mName.data);
+                if (w > 0)
+                    at += (size_t)w < sizeof list - at ? (size_t)w
+                                                       : sizeof list - at - 1;
+            }
+        snprintf(err, err_size, "no node or mesh named %s (it has: %s)",
+                 object, count ? list : "no named meshes");
+        st = PHKS_ERROR_INVALID_ARGUMENT;
+    } else if (!g.nt) {
+        snprintf(err, err_size, "no triangles in the scene%s%s",
+                 object ? " under " : "", object ? object : "");
+        st = PHKS_ERROR_NO_TRIANGLES;
+    } else {
+        st = phks_mesh_create(g.xyz, g.nv, g.tri, g.nt, mesh);
+        if (st != PHKS_OK) {
+            const char *why = phks_last_error_message();
+            snprintf(err, err_size, "%s",
+                     why && *why ? why : phks_status_string(st));
+        } else if (!object && g.meshes > 1 && note && note_size)
+            snprintf(note, note_size, "%zu meshes (%s) merged into one shape",
+                     g.meshes, names);
+    }
+    free(g.xyz);
+    free(g.tri);
+    aiReleaseImport(scene);
+    return st;
+}
+
+#else
+
+phks_status cli_assimp_load(const char *path, const char *object,
+                            phks_mesh **mesh, char *note, size_t note_size,
+                            char *err, size_t err_size)
+{
+    (void)object;
+    *mesh = NULL;
+    if (note && note_size)
+        note[0] = '\0';
+    const char *ext = extension(path);
+    snprintf(err, err_size, "built without assimp: cannot read %s",
+             ext ? ext : "this format");
+    return PHKS_ERROR_UNKNOWN_FORMAT;
+}
+
+#endif
