@@ -179,9 +179,11 @@ typedef enum phks_hks_scaling {
     PHKS_HKS_SCALING_MEAN = 1,
     /* log(HKS_t(x) A_t(x) / (4 pi t)), A_t(x) the area of the mesh within
      * straight-line distance sqrt(4 t) of x (the heat kernel's width), all
-     * in the unit box; 0 on a plane. A partial scan keeps one side of a
-     * thin part, where the heat that spread over both sides now stays on
-     * one: HKS_t doubles and A_t halves, so the product is what the scan
+     * in the unit box; -log(4 pi t) on a plane (where HKS_t A_t is 1), a
+     * constant per scale that drops out of every L1 distance between
+     * signatures (docs/method.md section 9). A partial scan keeps one side
+     * of a thin part, where the heat that spread over both sides now stays
+     * on one: HKS_t doubles and A_t halves, so the product is what the scan
      * shares with its whole. The logarithm makes the L1 distance weigh
      * every time scale alike. Feature vectors only: feature points are
      * chosen as with NONE. The default since 0.2.0 (docs/retrieval.md). */

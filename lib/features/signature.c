@@ -135,7 +135,9 @@ static phks_status local_areas(const phks__unit_mesh *um,
 /* The feature vectors of sig's points: HKS at each time scale, scaled as
  * opt->hks_scaling says. With LOCAL_AREA each value becomes
  * log(HKS_t A_t / (4 pi t)), A_t the area within sqrt(4 t) of the point
- * (local_area.c), t in the unit box: 0 on a plane; the logarithm weighs
+ * (local_area.c), t in the unit box: -log(4 pi t) on a plane, where
+ * HKS_t A_t is 1 (a constant per scale, which every L1 distance cancels;
+ * docs/method.md section 9); the logarithm weighs
  * every scale alike, where the plain values fall from about 80 at 5 tau
  * to about 1 at 1000 tau and the first scales would decide the L1
  * distance alone. */

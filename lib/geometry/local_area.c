@@ -8,7 +8,7 @@
  * to reach the missing side (docs/retrieval.md has the ratios measured).
  * The area within the kernel's width
  * sqrt(4 t) halves with it, so HKS_t times that area is the same on a half
- * tube as on the whole one, and 4 pi t on a plane.
+ * tube as on the whole one, and 1 on a plane.
  *
  * Straight-line distance, not geodesic, on purpose: the operator's kernel
  * joins the two sides of a part thinner than its width, and the area must
