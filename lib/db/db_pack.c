@@ -12,15 +12,9 @@
  * swapped words. It guards against damage, not against a writer that
  * means harm.
  */
-#if defined(__linux__) && !defined(_DEFAULT_SOURCE)
-#define _DEFAULT_SOURCE /* madvise's MADV_HUGEPAGE */
-#endif
 #include "db/db_cache.h"
 
 #include <string.h>
-#if defined(__linux__)
-#include <sys/mman.h>
-#endif
 
 #define HEADER 32
 #define TRAILER 16
@@ -211,87 +205,6 @@ phks_status phks__db_pack_encode(const phks__db_cache *c, size_t begin,
     *blob = out;
     *size = bytes;
     *entries = n;
-    return PHKS_OK;
-}
-
-/* The vectors of a large cache are written once, page by page, as the
- * chunks are read: on Linux, transparent huge pages take that from half
- * a million page faults (a third of the load, for a million entries) to
- * a thousand. Only a hint; failures are ignored. */
-static void advise_huge(void *p, size_t bytes)
-{
-#if defined(__linux__) && defined(MADV_HUGEPAGE)
-    const uintptr_t huge = (uintptr_t)2 << 20;
-    if (bytes < 16 * huge)
-        return;
-    uintptr_t a = ((uintptr_t)p + huge - 1) & ~(huge - 1),
-              e = ((uintptr_t)p + bytes) & ~(huge - 1);
-    if (e > a)
-        (void)madvise((void *)a, e - a, MADV_HUGEPAGE);
-#else
-    (void)p;
-    (void)bytes;
-#endif
-}
-
-/* Room for `more` items beyond `used` in *array of *capacity items. */
-static bool reserve(void **array, size_t *capacity, size_t used, size_t more,
-                    size_t item)
-{
-    if (more <= *capacity - used)
-        return true;
-    if (more > SIZE_MAX / item - used)
-        return false;
-    size_t want = used + more;
-    if (*capacity <= SIZE_MAX / item / 2 && want < 2 * *capacity)
-        want = 2 * *capacity;
-    void *p = phks__realloc_array(*array, want, item);
-    if (!p)
-        return false;
-    *array = p;
-    *capacity = want;
-    return true;
-}
-
-static bool reserve_slots(phks__db_cache *c, size_t more)
-{
-    if (more <= c->capacity - c->count)
-        return true;
-    if (more > SIZE_MAX / 2 - c->count)
-        return false;
-    size_t want = c->count + more;
-    if (want < 2 * c->capacity)
-        want = 2 * c->capacity;
-    void *p;
-    if (!(p = phks__realloc_array(c->ids, want, sizeof *c->ids)))
-        return false;
-    c->ids = p;
-    if (!(p = phks__realloc_array(c->features, want, sizeof *c->features)))
-        return false;
-    c->features = p;
-    if (!(p = phks__realloc_array(c->vector_at, want, sizeof *c->vector_at)))
-        return false;
-    c->vector_at = p;
-    if (!(p = phks__realloc_array(c->text_at, want, sizeof *c->text_at)))
-        return false;
-    c->text_at = p;
-    c->capacity = want;
-    return true;
-}
-
-phks_status phks__db_cache_reserve(phks__db_cache *c, size_t slots,
-                                  size_t doubles, size_t text)
-{
-    double *before = c->vectors;
-    if (!reserve_slots(c, slots) ||
-        !reserve((void **)&c->vectors, &c->vectors_capacity, c->vectors_used,
-                 doubles, sizeof *c->vectors) ||
-        !reserve((void **)&c->text, &c->text_capacity, c->text_used, text, 1))
-        return PHKS_ERROR_OUT_OF_MEMORY;
-    if (c->vectors != before)
-        advise_huge(c->vectors + c->vectors_used,
-                    (c->vectors_capacity - c->vectors_used) *
-                        sizeof *c->vectors);
     return PHKS_OK;
 }
 
