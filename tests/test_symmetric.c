@@ -20,6 +20,7 @@
  * test_sphere), and its signatures from each solver and from a rotated
  * copy must score within 1e-6 of each other.
  */
+#include "funk_hecke.h"
 #include "soup.h"
 
 #include <math.h>
@@ -358,71 +359,6 @@ static void check_mesh(const phks_mesh *mesh, uint32_t count, size_t zeros,
         check_whole(mesh, op, count, spec, name);
         phks_spectrum_free(spec);
     }
-}
-
-/* =====================================================================
- * Funk-Hecke (as in test_sphere.c)
- * ===================================================================== */
-
-#define GL_NODES 32
-static double gl_x[GL_NODES], gl_w[GL_NODES];
-
-static double legendre(int l, double x)
-{
-    double p0 = 1, p1 = x;
-    if (l == 0)
-        return 1;
-    for (int k = 1; k < l; k++) {
-        double p2 = ((2 * k + 1) * x * p1 - k * p0) / (k + 1);
-        p0 = p1;
-        p1 = p2;
-    }
-    return p1;
-}
-
-static void gauss_legendre_init(void)
-{
-    const int n = GL_NODES;
-    for (int i = 0; i < n; i++) {
-        double x = cos(PI * (i + 0.75) / (n + 0.5)), dp = 1;
-        for (int it = 0; it < 100; it++) {
-            double p = legendre(n, x), pm = legendre(n - 1, x);
-            dp = n * (x * p - pm) / (x * x - 1);
-            double dx = p / dp;
-            x -= dx;
-            if (fabs(dx) < 1e-16)
-                break;
-        }
-        double p = legendre(n, x), pm = legendre(n - 1, x);
-        dp = n * (x * p - pm) / (x * x - 1);
-        gl_x[i] = x;
-        gl_w[i] = 2 / ((1 - x * x) * dp * dp);
-    }
-}
-
-static double panel(int l, double width, double a, double b)
-{
-    double sum = 0, half = (b - a) / 2, mid = (a + b) / 2;
-    for (int i = 0; i < GL_NODES; i++) {
-        double u = mid + half * gl_x[i];
-        sum += gl_w[i] * exp(-u / width) * (1 - legendre(l, 1 - u));
-    }
-    return sum * half;
-}
-
-/* mu_l = R^2/(2 h^2) int_{-1}^{1} exp(-R^2 (1 - s)/(2h)) (1 - P_l(s)) ds,
- * the kernel cut at chord r: u = 1 - s up to r^2 / (2 R^2). */
-static double funk_hecke(int l, double R, double h, double r)
-{
-    double width = 2 * h / (R * R), umax = fmin(2.0, r * r / (2 * R * R));
-    double integral = 0, a = 0, b = width;
-    while (a < umax) {
-        b = fmin(b, umax);
-        integral += panel(l, width, a, b);
-        a = b;
-        b = a < width ? width : 2 * a;
-    }
-    return R * R / (2 * h * h) * integral;
 }
 
 /* =====================================================================
