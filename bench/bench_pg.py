@@ -98,28 +98,7 @@ TABLE = ("(id bigint NOT NULL, name text NOT NULL, sig phks_signature "
          "NOT NULL) WITH (toast_tuple_target = 8160)")
 queries = [synthetic(10 ** 9 + i).hex() for i in range(args.queries)]
 TOPK = "SELECT id, sig <~> '%s' FROM %s ORDER BY sig <~> '%s', id LIMIT 10;"
-
-
-SHARD_TOPK = """
-CREATE FUNCTION shard_topk(q phks_signature, k int)
-RETURNS TABLE (id bigint, score float8)
-LANGUAGE plpgsql STABLE AS $$
-DECLARE
-  part regclass;
-  parts text[] := '{}';
-BEGIN
-  FOR part IN SELECT inhrelid::regclass FROM pg_inherits
-              WHERE inhparent = 'shapes'::regclass LOOP
-    parts := parts || format('(SELECT id, sig <~> $1 AS score FROM %s '
-                             'ORDER BY sig <~> $1, id LIMIT $2)', part);
-  END LOOP;
-  -- OFFSET 0 keeps the branches under a plain Append, which runs the
-  -- shards at once with async_capable (a Merge Append would not).
-  RETURN QUERY EXECUTE 'SELECT * FROM (SELECT * FROM ('
-    || array_to_string(parts, ' UNION ALL ')
-    || ') AS u OFFSET 0) AS hits ORDER BY score, id LIMIT $2' USING q, k;
-END $$;"""
-SHARD_QUERY = "SELECT * FROM shard_topk('%s', 10);"
+SHARD_QUERY = "SELECT id, score FROM shard_topk('%s', 10);"
 
 
 def timed(cluster, table, pre="", shard_topk=False):
@@ -209,7 +188,7 @@ if not args.skip_shards:
         assert res == single_results, "sharded top-10 differs"
     report.append(("coordinator + %d shards (Merge Append)" % args.shards,
                    med, best))
-    coord.sql(SHARD_TOPK)
+    coord.sql(pgutil.SHARD_TOPK)
     med, best, res = timed(coord, "shapes", "", shard_topk=True)
     if single_results is not None:
         assert res == single_results, "shard_topk differs"

@@ -266,3 +266,27 @@ def signatures(phks, meshes, cache, extra_args=()):
 def hexfile(path):
     with open(path, "rb") as f:
         return f.read().hex()
+
+
+# The top k over a table partitioned into postgres_fdw shards with a LIMIT
+# on every shard, so that each sends only its own k best (docs/scale.md);
+# the tests and bench/bench_pg.py create it on the coordinator.
+SHARD_TOPK = """
+CREATE FUNCTION shard_topk(q phks_signature, k int)
+RETURNS TABLE (id bigint, name text, score float8)
+LANGUAGE plpgsql STABLE AS $$
+DECLARE
+  part regclass;
+  parts text[] := '{}';
+BEGIN
+  FOR part IN SELECT inhrelid::regclass FROM pg_inherits
+              WHERE inhparent = 'shapes'::regclass LOOP
+    parts := parts || format('(SELECT id, name, sig <~> $1 AS score FROM %s '
+                             'ORDER BY sig <~> $1, id LIMIT $2)', part);
+  END LOOP;
+  -- OFFSET 0 keeps the branches under a plain Append, which runs the
+  -- shards at once with async_capable (a Merge Append would not).
+  RETURN QUERY EXECUTE 'SELECT * FROM (SELECT * FROM ('
+    || array_to_string(parts, ' UNION ALL ')
+    || ') AS u OFFSET 0) AS hits ORDER BY score, id LIMIT $2' USING q, k;
+END $$;"""

@@ -116,25 +116,7 @@ check(len(remote) == SHARDS and all("ORDER BY (sig OPERATOR(public.<~>)"
 
 # The same top k with a LIMIT on every shard (docs/scale.md): each shard
 # sends only its own k best.
-coord.sql("""
-CREATE FUNCTION shard_topk(q phks_signature, k int)
-RETURNS TABLE (id bigint, name text, score float8)
-LANGUAGE plpgsql STABLE AS $$
-DECLARE
-  part regclass;
-  parts text[] := '{}';
-BEGIN
-  FOR part IN SELECT inhrelid::regclass FROM pg_inherits
-              WHERE inhparent = 'shapes'::regclass LOOP
-    parts := parts || format('(SELECT id, name, sig <~> $1 AS score FROM %s '
-                             'ORDER BY sig <~> $1, id LIMIT $2)', part);
-  END LOOP;
-  -- OFFSET 0 keeps the branches under a plain Append, which runs the
-  -- shards at once with async_capable (a Merge Append would not).
-  RETURN QUERY EXECUTE 'SELECT * FROM (SELECT * FROM ('
-    || array_to_string(parts, ' UNION ALL ')
-    || ') AS u OFFSET 0) AS hits ORDER BY score, id LIMIT $2' USING q, k;
-END $$;""")
+coord.sql(pgutil.SHARD_TOPK)
 for q in queries[:3]:
     for k in (1, 10):
         rows = coord.sql("SELECT * FROM shard_topk('%s', %d);" %
