@@ -79,8 +79,7 @@ static double hks_factor(const phks_spectrum *spec, const phks_options *opt,
 
 /* The local areas of features [begin, end), for phks__run_batched. */
 typedef struct {
-    const phks__unit_mesh *um;
-    const phks__quadrature *quad; /* NULL: the vertex areas */
+    phks__surface surface;
     const phks_signature *sig;
     const double *radius2;
     double *area; /* sig->count x sig->length */
@@ -89,16 +88,9 @@ typedef struct {
 static void areas_range(void *ctx, size_t begin, size_t end)
 {
     const areas_ctx *c = ctx;
-    for (size_t i = begin; i < end; i++) {
-        if (c->quad)
-            phks__quadrature_local_areas(c->quad, c->um->scale,
-                                         c->sig->vertex[i], c->radius2,
-                                         c->sig->length,
-                                         c->area + i * c->sig->length);
-        else
-            phks__local_areas(c->um, c->sig->vertex[i], c->radius2,
-                              c->sig->length, c->area + i * c->sig->length);
-    }
+    for (size_t i = begin; i < end; i++)
+        phks__local_areas(&c->surface, c->sig->vertex[i], c->radius2,
+                          c->sig->length, c->area + i * c->sig->length);
 }
 
 /* A_t of every feature point for PHKS_HKS_SCALING_LOCAL_AREA into area
@@ -122,8 +114,12 @@ static phks_status local_areas(const phks__unit_mesh *um,
         if (st != PHKS_OK)
             return st;
     }
-    areas_ctx c = {um, quad.count > quad.vertex_count ? &quad : NULL, sig,
-                   radius2, area};
+    /* The quadrature's first points are the mesh's vertices, in order. */
+    phks__surface surface = {um->mesh->xyz, um->area, um->mesh->vertex_count,
+                             um->scale};
+    if (quad.count > quad.vertex_count)
+        surface = (phks__surface){quad.xyz, quad.area, quad.count, um->scale};
+    areas_ctx c = {surface, sig, radius2, area};
     unsigned threads = phks__thread_count(opt);
     phks__span at = {opt, PHKS_STAGE_PERSISTENCE, 0.95, 0.05};
     phks_status st = phks__run_batched(sig->count, threads, areas_range, &c,

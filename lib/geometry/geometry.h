@@ -85,11 +85,21 @@ bool phks__long_triangles(const phks_mesh *mesh, double scale, double width);
 phks_status phks__unit_mesh_for(const phks_mesh *mesh, const phks_options *opt,
                                 phks__span at, phks__unit_mesh *out);
 
-/* area[s] = the area (vertex_area summed) of the vertices within
- * straight-line distance sqrt(radius2[s]) of `vertex`, in the unit box of
- * um: what PHKS_HKS_SCALING_LOCAL_AREA multiplies HKS by
+/* A surface sampled by weighted points: n positions (3 each, times scale
+ * in the unit box) and the area each stands for (a mesh's vertices with
+ * their vertex areas, or the operator's quadrature points). */
+typedef struct phks__surface {
+    const double *xyz;
+    const double *area;
+    size_t n;
+    double scale;
+} phks__surface;
+
+/* area[s] = the area (the points' areas summed) of the points within
+ * straight-line distance sqrt(radius2[s]) of point `point`, in the unit
+ * box: what PHKS_HKS_SCALING_LOCAL_AREA multiplies HKS by
  * (local_area.c). The radii in any order. */
-void phks__local_areas(const phks__unit_mesh *um, uint32_t vertex,
+void phks__local_areas(const phks__surface *surface, size_t point,
                        const double *radius2, size_t count, double *area);
 /* Eigen-decomposition of the symmetric 3 x 3 matrix (row-major; its upper
  * triangle is read) by cyclic Jacobi, in the layout of LAPACK's row-major

@@ -16,20 +16,19 @@
  */
 #include "geometry/geometry.h"
 
-void phks__local_areas(const phks__unit_mesh *um, uint32_t vertex,
+void phks__local_areas(const phks__surface *surface, size_t point,
                        const double *radius2, size_t count, double *area)
 {
-    const phks_mesh *mesh = um->mesh;
-    const double scale = um->scale, *vertex_area = um->area;
-    const double *x = mesh->xyz + 3 * (size_t)vertex;
+    const double scale = surface->scale;
+    const double *x = surface->xyz + 3 * point;
     for (size_t s = 0; s < count; s++)
         area[s] = 0;
-    for (size_t v = 0; v < mesh->vertex_count; v++) {
-        const double *y = mesh->xyz + 3 * v;
+    for (size_t v = 0; v < surface->n; v++) {
+        const double *y = surface->xyz + 3 * v;
         double dx = (y[0] - x[0]) * scale, dy = (y[1] - x[1]) * scale,
                dz = (y[2] - x[2]) * scale, d2 = dx * dx + dy * dy + dz * dz;
         for (size_t s = 0; s < count; s++)
             if (d2 <= radius2[s])
-                area[s] += vertex_area[v];
+                area[s] += surface->area[v];
     }
 }

@@ -75,11 +75,6 @@ void phks__quadrature_release(phks__quadrature *q);
  * the vertices (the sums agree). */
 void phks__quadrature_lump(const phks__quadrature *q, const double *point,
                            double *vertex);
-/* phks__local_areas with the points' weights in place of the vertex
- * areas. */
-void phks__quadrature_local_areas(const phks__quadrature *q, double scale,
-                                  uint32_t vertex, const double *radius2,
-                                  size_t count, double *area);
 
 /* ---- B's null space (null_space.c) */
 /* The connected components of the graph of op's non-zero off-diagonal

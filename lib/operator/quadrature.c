@@ -323,20 +323,3 @@ void phks__quadrature_lump(const phks__quadrature *q, const double *point,
             vertex[q->corner[3 * j + k]] += q->bary[3 * j + k] * point[i];
     }
 }
-
-void phks__quadrature_local_areas(const phks__quadrature *q, double scale,
-                                  uint32_t vertex, const double *radius2,
-                                  size_t count, double *area)
-{
-    const double *x = q->xyz + 3 * (size_t)vertex;
-    for (size_t s = 0; s < count; s++)
-        area[s] = 0;
-    for (size_t v = 0; v < q->count; v++) {
-        const double *y = q->xyz + 3 * v;
-        double dx = (y[0] - x[0]) * scale, dy = (y[1] - x[1]) * scale,
-               dz = (y[2] - x[2]) * scale, d2 = dx * dx + dy * dy + dz * dz;
-        for (size_t s = 0; s < count; s++)
-            if (d2 <= radius2[s])
-                area[s] += q->area[v];
-    }
-}
