@@ -214,6 +214,25 @@ typedef enum phks_quadrature {
     PHKS_QUADRATURE_TRIANGLES = 1
 } phks_quadrature;
 
+/* How phks_score compares two signatures (see "Scoring and
+ * correspondences"). */
+typedef enum phks_matching {
+    /* The paper's: each feature's nearest feature vector in the other
+     * signature, by L1 distance, summed both ways. Symmetric. Every point
+     * is judged alone, so a partial scan whose points resemble some of
+     * another class's is taken for it. */
+    PHKS_MATCHING_NEAREST = 0,
+    /* Correspondences verified by intrinsic geometry: the signature also
+     * keeps the distances along the surface between its feature points,
+     * and the score is that of the largest set of one-to-one
+     * correspondences whose vectors are close and whose distances agree
+     * (up to a scale, since the unit box enlarges a cut shape, and
+     * allowing a cut shape's distances to be longer, since a cut can only
+     * lengthen a path). Asymmetric: query first, entry second
+     * (docs/method.md section 14). The default since 0.3.0. */
+    PHKS_MATCHING_VERIFIED = 1
+} phks_matching;
+
 typedef enum phks_solver {
     /* Dense LAPACK for small meshes, block Lanczos above. */
     PHKS_SOLVER_AUTO = 0,
@@ -313,7 +332,12 @@ typedef struct phks_options {
                                 TRIANGLES makes a coarsely triangulated
                                 face look like a finely meshed one,
                                 docs/method.md section 13)               */
-    uint64_t reserved[21];   /* zero; room for fields of later versions  */
+    int32_t matching;        /* phks_matching: VERIFIED (the paper's is
+                                NEAREST). VERIFIED signatures also hold
+                                the distances between their feature
+                                points                                   */
+    uint32_t reserved_pad;   /* zero                                     */
+    uint64_t reserved[20];   /* zero; room for fields of later versions  */
 } phks_options;
 
 /* Fills *options with the defaults above. Thread-safe. Returns
@@ -397,6 +421,20 @@ PHKS_API size_t phks_mesh_component_count(const phks_mesh *mesh);
 PHKS_API const uint32_t *phks_mesh_vertex_components(const phks_mesh *mesh);
 /* Total surface area, in input units squared. */
 PHKS_API double phks_mesh_area(const phks_mesh *mesh);
+/* Distances along the surface from vertex `source` to every vertex, in
+ * input units, into distance (vertex_count entries): shortest paths over
+ * the mesh's edges (a few percent longer than the true geodesic on a
+ * regular mesh), with the pieces of a mesh in several pieces joined,
+ * vertex to nearest vertex, where they come within the operator's reach
+ * (cutoff sqrt(4 tau) in the unit box of options->box; options NULL: the
+ * defaults). INFINITY where a piece stays out of reach. The distances
+ * PHKS_MATCHING_VERIFIED keeps between feature points, in the unit box.
+ * Errors: PHKS_ERROR_INVALID_ARGUMENT (NULL, source out of range, bad
+ * options), PHKS_ERROR_OUT_OF_MEMORY. Thread-safe. */
+PHKS_API phks_status phks_mesh_geodesic_distances(const phks_mesh *mesh,
+                                                  const phks_options *options,
+                                                  uint32_t source,
+                                                  double *distance);
 
 /* =====================================================================
  * Spectrum: the mesh-Laplacian and its smallest eigenpairs
@@ -613,31 +651,62 @@ PHKS_API phks_status phks_signature_decode(const void *buffer, size_t size,
 /* =====================================================================
  * Scoring and correspondences
  * =====================================================================
- * score(A, B) = sum_{a in A} min_{b in B} |a - b|_1
- *             + sum_{b in B} min_{a in A} |a - b|_1
- * over the feature vectors. Lower is more similar; 0 for identical
- * signatures; symmetric; not a metric. Errors: PHKS_ERROR_INVALID_ARGUMENT
- * (NULL), PHKS_ERROR_INCOMPATIBLE (made with different options).
- * Thread-safe.
+ * phks_score(query, entry): lower is more similar. What it measures is the
+ * signatures' options.matching (both must have the same):
+ *
+ * PHKS_MATCHING_VERIFIED (the default): each feature of the query
+ * proposes its 3 nearest features of the entry by the L1 distance of
+ * their vectors; the score is 1 - E / n^2, n the query's feature count
+ * and E the affinity of the largest one-to-one set of proposals whose
+ * distances along the surface agree, up to one scale between the two
+ * unit boxes (docs/method.md section 14). In [0, 1]; 0 for a signature
+ * against itself. Asymmetric: the query is the first argument, the entry
+ * (a database's) the second; a query whose features all find their
+ * places in the entry scores low even when the entry has more. Invariant
+ * to bending (the distances are intrinsic) and to the enlargement of a
+ * cut shape's unit box.
+ *
+ * PHKS_MATCHING_NEAREST (the paper's):
+ *   score(A, B) = sum_{a in A} min_{b in B} |a - b|_1
+ *               + sum_{b in B} min_{a in A} |a - b|_1
+ * over the feature vectors; 0 for identical signatures; symmetric; not a
+ * metric.
+ *
+ * Errors: PHKS_ERROR_INVALID_ARGUMENT (NULL), PHKS_ERROR_INCOMPATIBLE
+ * (made with different options), PHKS_ERROR_OUT_OF_MEMORY. Thread-safe.
  */
-PHKS_API phks_status phks_score(const phks_signature *a,
-                                const phks_signature *b, double *score);
+PHKS_API phks_status phks_score(const phks_signature *query,
+                                const phks_signature *entry, double *score);
+
+/* The paper's nearest-L1 score of a and b (the formula of
+ * PHKS_MATCHING_NEAREST above) whatever their matching: the fast first
+ * stage of a verified query, which needs the feature vectors alone.
+ * Errors and thread-safety as phks_score. */
+PHKS_API phks_status phks_score_nearest(const phks_signature *a,
+                                        const phks_signature *b,
+                                        double *score);
 
 typedef struct phks_correspondence {
     uint32_t feature_a;  /* index of a feature of a                         */
     uint32_t feature_b;  /* index of a feature of b                         */
     double distance;     /* L1 distance of their vectors                    */
-    uint32_t from_a;     /* 1: feature_b is the nearest to feature_a;
+    uint32_t from_a;     /* 1: a row of feature_a (see phks_match);
                             0: feature_a is the nearest to feature_b        */
-    uint32_t reserved;
+    uint32_t verified;   /* 1: the pair is one of the verified set
+                            (PHKS_MATCHING_VERIFIED; always 0 with
+                            NEAREST). Was `reserved`, always 0, before
+                            0.3.0                                          */
 } phks_correspondence;
 
-/* The score and its minimising pairs: first one per feature of a (from_a =
- * 1), then one per feature of b (from_a = 0); ties go to the lower index.
- * out needs room for feature_count(a) + feature_count(b) entries (out may
- * be NULL to get only *count and *score). Errors as phks_score, and
- * PHKS_ERROR_BUFFER_TOO_SMALL (then *count is the room needed).
- * Thread-safe. */
+/* The score and its pairs: first one row per feature of a (from_a = 1),
+ * then one per feature of b (from_a = 0). A's rows name, with VERIFIED,
+ * the feature's verified partner when it has one (verified = 1), and
+ * otherwise, as with NEAREST, its nearest feature of b; b's rows name
+ * the nearest feature of a (verified = 1 when that pair is verified).
+ * Ties go to the lower index. out needs room for feature_count(a) +
+ * feature_count(b) entries (out may be NULL to get only *count and
+ * *score). Errors as phks_score, and PHKS_ERROR_BUFFER_TOO_SMALL (then
+ * *count is the room needed). Thread-safe. */
 PHKS_API phks_status phks_match(const phks_signature *a,
                                 const phks_signature *b,
                                 phks_correspondence *out, size_t capacity,

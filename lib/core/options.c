@@ -46,6 +46,10 @@ phks_status phks_options_init(phks_options *options)
      * points it adds, up to 22 x on PSB's coarsest Bearing models
      * (docs/benchmarks.md). */
     options->quadrature = PHKS_QUADRATURE_VERTICES;
+    /* Points judged alone mistake a partial scan for any shape with a
+     * few similar points; their layout along the surface tells them
+     * apart (docs/retrieval.md). */
+    options->matching = PHKS_MATCHING_VERIFIED;
     return PHKS_OK;
 }
 
@@ -123,6 +127,10 @@ phks_status phks__options_resolve(const phks_options *user, phks_options *out)
         return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "options: unknown quadrature %d",
                          (int)out->quadrature);
+    if (out->matching != PHKS_MATCHING_NEAREST &&
+        out->matching != PHKS_MATCHING_VERIFIED)
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
+                         "options: unknown matching %d", (int)out->matching);
     if (out->threads > 1024)
         return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "options: threads %u above 1024", out->threads);
@@ -192,6 +200,7 @@ static const struct {
     {"feature_scale", offsetof(phks_options, feature_scale), FIELD_DOUBLE, false},
     {"boundary_margin", offsetof(phks_options, boundary_margin), FIELD_DOUBLE, false},
     {"hks_scaling", offsetof(phks_options, hks_scaling), FIELD_INT32, false},
+    {"matching", offsetof(phks_options, matching), FIELD_INT32, false},
 };
 
 static double field_value(const phks_options *o, size_t i)

@@ -1514,6 +1514,13 @@ phks_status phks_db_query(phks_db *db, const phks_signature *query, size_t k,
                          "phks_db_query: NULL argument");
     if (k == 0)
         return phks__fail(PHKS_ERROR_INVALID_ARGUMENT, "phks_db_query: k is 0");
+    /* Verified matching: the scan shortlists, db_rerank.c decides. */
+    bool verified = query->options.matching == PHKS_MATCHING_VERIFIED;
+    size_t m = k > PHKS__DB_SHORTLIST ? k : PHKS__DB_SHORTLIST, listed = 0;
+    phks_hit *shortlist = verified ? phks__malloc_array(m, sizeof *shortlist)
+                                   : NULL;
+    if (verified && !shortlist)
+        return phks__fail_oom("phks_db_query");
     /* A writer that runs out of memory updating the cache drops it; the
      * scan then finds it unloaded and refreshes again. */
     for (;;) {
@@ -1528,12 +1535,21 @@ phks_status phks_db_query(phks_db *db, const phks_signature *query, size_t k,
                            "options than the database's (%s)",
                            detail);
         pthread_mutex_unlock(&db->lock);
-        if (st != PHKS_OK)
+        if (st != PHKS_OK) {
+            phks__free(shortlist);
             return st;
+        }
         pthread_rwlock_rdlock(&db->cache_lock);
         if (db->cache_loaded) {
-            st = phks__db_cache_query(&db->cache, query, k, hits, count);
+            st = verified ? phks__db_cache_query(&db->cache, query, m,
+                                                 shortlist, &listed)
+                          : phks__db_cache_query(&db->cache, query, k, hits,
+                                                 count);
             pthread_rwlock_unlock(&db->cache_lock);
+            if (st == PHKS_OK && verified)
+                st = phks__db_rerank(db, query, shortlist, listed, k, hits,
+                                     count);
+            phks__free(shortlist);
             return st;
         }
         pthread_rwlock_unlock(&db->cache_lock);

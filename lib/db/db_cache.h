@@ -50,6 +50,17 @@ phks_status phks__db_cache_query(const phks__db_cache *cache,
                                 const phks_signature *query, size_t k,
                                 phks_hit *hits, size_t *count);
 
+/* ---- the verified stage (db_rerank.c) */
+/* Entries the packed scan hands to the verified score: the nearest-L1
+ * rank of a class's right answer is rarely beyond it (docs/retrieval.md). */
+#define PHKS__DB_SHORTLIST 100
+/* Scores shortlist's m entries (read from db) by the verified score of
+ * query, and returns the k best as phks_db_query does; entries removed
+ * since the scan are left out. shortlist is reordered. */
+phks_status phks__db_rerank(phks_db *db, const phks_signature *query,
+                            phks_hit *shortlist, size_t m, size_t k,
+                            phks_hit *hits, size_t *count);
+
 /* Makes room for `slots` more entries, `doubles` more vector values and
  * `text` more text bytes (PHKS_ERROR_OUT_OF_MEMORY; nothing is lost). */
 phks_status phks__db_cache_reserve(phks__db_cache *cache, size_t slots,

@@ -17,6 +17,7 @@ void phks_signature_free(phks_signature *sig)
     phks__free(sig->position);
     phks__free(sig->persistence);
     phks__free(sig->vectors);
+    phks__free(sig->geodesic);
     phks__free(sig);
 }
 
@@ -38,6 +39,13 @@ phks_status phks__signature_alloc(size_t count, size_t length,
     }
     *out = sig;
     return PHKS_OK;
+}
+
+phks_status phks__signature_alloc_geodesic(phks_signature *sig)
+{
+    size_t pairs = phks__pair_count(sig->count);
+    sig->geodesic = phks__malloc_array(pairs ? pairs : 1, sizeof *sig->geodesic);
+    return sig->geodesic ? PHKS_OK : phks__fail_oom("feature geodesics");
 }
 
 /* The spectrum must come from the same operator as the options describe;
@@ -248,7 +256,8 @@ static phks_status from_spectrum(const phks_mesh *mesh,
     if (st == PHKS_OK)
         st = phks__progress(opt, PHKS_STAGE_PERSISTENCE, 0);
     if (st == PHKS_OK && !given &&
-        (tapers(mesh, opt) || opt->hks_scaling == PHKS_HKS_SCALING_LOCAL_AREA)) {
+        (tapers(mesh, opt) || opt->hks_scaling == PHKS_HKS_SCALING_LOCAL_AREA ||
+         opt->matching == PHKS_MATCHING_VERIFIED)) {
         phks__span at = {opt, PHKS_STAGE_PERSISTENCE, 0, SCALE_SPAN};
         st = phks__unit_mesh_for(mesh, opt, at, &own);
         from = SCALE_SPAN;
@@ -279,6 +288,8 @@ static phks_status from_spectrum(const phks_mesh *mesh,
         sig->persistence[i] = maxima[i].persistence;
     }
     st = feature_vectors(um, spec, opt, sig);
+    if (st == PHKS_OK && opt->matching == PHKS_MATCHING_VERIFIED)
+        st = phks__signature_geodesics(um, opt, sig);
     if (st == PHKS_OK)
         st = phks__progress(opt, PHKS_STAGE_PERSISTENCE, 1);
 done:

@@ -8,17 +8,20 @@
  *   f64 feature_scale  u32 operator  u32 box  u32 scale_count
  *   (format 2 on:) f64 boundary_margin  u32 hks_scaling
  *   (format 3 on:) u32 quadrature
+ *   (format 4 on:) u32 matching
  *   f64 scales[scale_count]
  *   u32 count, then per feature:
  *     u32 vertex  f64 x y z  f64 persistence  f64 vector[scale_count]
+ *   (format 4 on, matching VERIFIED:) f32 geodesic[count (count - 1) / 2],
+ *     the pairs i < j in the order j = 1.., i = 0..j-1
  *   u32 CRC-32 of every byte before it
  * A reader refuses a format number above its own rather than guess, and
  * reads every older one: format 1 blobs predate the two format-2 fields and
  * were made with them zero, format 2 ones predate the quadrature (0, the
- * vertices'). The writer uses the oldest format that holds the options:
- * format 2 while quadrature is 0, so that a signature made without the
- * option has the bytes it had before format 3 existed (and older readers
- * still read it).
+ * vertices'), format 3 ones the matching (0, the nearest). The writer
+ * uses the oldest format that holds the options: format 2 while
+ * quadrature and matching are 0, so that a signature made without them
+ * has the bytes it had before (and older readers still read it).
  */
 #include "features/features.h"
 
@@ -26,22 +29,31 @@
 #include <stdio.h>
 #include <string.h>
 
-#define FORMAT 3
+#define FORMAT 4
 #define HEADER_SIZE_1 (4 + 2 + 2 + 8 + 8 + 4 + 4 + 8 + 4 + 4 + 4)
 #define FORMAT_2_FIELDS (8 + 4)
 #define FORMAT_3_FIELDS 4
+#define FORMAT_4_FIELDS 4
 #define FEATURE_FIXED (4 + 3 * 8 + 8)
 
 static size_t header_size(unsigned format)
 {
     return HEADER_SIZE_1 + (format >= 2 ? FORMAT_2_FIELDS : 0) +
-           (format >= 3 ? FORMAT_3_FIELDS : 0);
+           (format >= 3 ? FORMAT_3_FIELDS : 0) +
+           (format >= 4 ? FORMAT_4_FIELDS : 0);
 }
 
-static size_t blob_size(unsigned format, size_t scales, size_t count)
+static size_t blob_size(unsigned format, size_t scales, size_t count,
+                        bool geodesics)
 {
     return header_size(format) + 8 * scales + 4 +
-           count * (FEATURE_FIXED + 8 * scales) + 4;
+           count * (FEATURE_FIXED + 8 * scales) +
+           (geodesics ? 4 * phks__pair_count(count) : 0) + 4;
+}
+
+static bool has_geodesics(const phks_options *o)
+{
+    return o->matching == PHKS_MATCHING_VERIFIED;
 }
 
 static unsigned char *put_u16(unsigned char *p, uint16_t x)
@@ -56,6 +68,13 @@ static unsigned char *put_u32(unsigned char *p, uint32_t x)
     for (int i = 0; i < 4; i++)
         p[i] = (unsigned char)(x >> (8 * i));
     return p + 4;
+}
+
+static unsigned char *put_f32(unsigned char *p, float x)
+{
+    uint32_t u;
+    memcpy(&u, &x, sizeof u);
+    return put_u32(p, u);
 }
 
 static unsigned char *put_f64(unsigned char *p, double x)
@@ -83,6 +102,14 @@ static uint32_t get_u32(const unsigned char **p)
     return x;
 }
 
+static float get_f32(const unsigned char **p)
+{
+    uint32_t u = get_u32(p);
+    float x;
+    memcpy(&x, &u, sizeof x);
+    return x;
+}
+
 static double get_f64(const unsigned char **p)
 {
     uint64_t u = 0;
@@ -97,12 +124,16 @@ static double get_f64(const unsigned char **p)
 /* The oldest format that holds sig's options (see the top comment). */
 static unsigned format_of(const phks_signature *sig)
 {
-    return sig->options.quadrature != PHKS_QUADRATURE_VERTICES ? FORMAT : 2;
+    if (sig->options.matching != PHKS_MATCHING_NEAREST)
+        return 4;
+    return sig->options.quadrature != PHKS_QUADRATURE_VERTICES ? 3 : 2;
 }
 
 size_t phks_signature_encoded_size(const phks_signature *sig)
 {
-    return sig ? blob_size(format_of(sig), sig->length, sig->count) : 0;
+    return sig ? blob_size(format_of(sig), sig->length, sig->count,
+                           has_geodesics(&sig->options))
+               : 0;
 }
 
 phks_status phks_signature_encode(const phks_signature *sig, void *buffer,
@@ -112,7 +143,8 @@ phks_status phks_signature_encode(const phks_signature *sig, void *buffer,
         return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "phks_signature_encode: NULL argument");
     const unsigned format = format_of(sig);
-    size_t need = blob_size(format, sig->length, sig->count);
+    size_t need = blob_size(format, sig->length, sig->count,
+                            has_geodesics(&sig->options));
     *size = need;
     if (capacity < need)
         return phks__fail(PHKS_ERROR_BUFFER_TOO_SMALL,
@@ -135,6 +167,8 @@ phks_status phks_signature_encode(const phks_signature *sig, void *buffer,
     p = put_u32(p, (uint32_t)o->hks_scaling);
     if (format >= 3)
         p = put_u32(p, (uint32_t)o->quadrature);
+    if (format >= 4)
+        p = put_u32(p, (uint32_t)o->matching);
     for (uint32_t s = 0; s < o->scale_count; s++)
         p = put_f64(p, o->scales[s]);
     p = put_u32(p, (uint32_t)sig->count);
@@ -146,6 +180,8 @@ phks_status phks_signature_encode(const phks_signature *sig, void *buffer,
         for (size_t s = 0; s < sig->length; s++)
             p = put_f64(p, sig->vectors[i * sig->length + s]);
     }
+    for (size_t k = 0; has_geodesics(o) && k < phks__pair_count(sig->count); k++)
+        p = put_f32(p, sig->geodesic[k]);
     put_u32(p, phks__crc32(start, (size_t)(p - start)));
     return PHKS_OK;
 }
@@ -168,6 +204,9 @@ static phks_status check_numbers(const phks_signature *sig)
             ok = ok && isfinite(sig->position[3 * i + d]);
         for (size_t s = 0; s < sig->length; s++)
             ok = ok && isfinite(sig->vectors[i * sig->length + s]);
+        /* Pieces that stay apart are INFINITY apart; never negative. */
+        for (size_t j = 0; ok && sig->geodesic && j < i; j++)
+            ok = sig->geodesic[phks__pair_index(j, i)] >= 0;
         if (!ok)
             return phks__fail(PHKS_ERROR_CORRUPT,
                              "signature blob: feature %zu holds an impossible "
@@ -222,6 +261,9 @@ phks_status phks_signature_decode(const void *buffer, size_t size,
     o.quadrature = PHKS_QUADRATURE_VERTICES;
     if (format >= 3)
         o.quadrature = (int32_t)get_u32(&p);
+    o.matching = PHKS_MATCHING_NEAREST;
+    if (format >= 4)
+        o.matching = (int32_t)get_u32(&p);
     if (o.scale_count < 1 || o.scale_count > PHKS_MAX_SCALES)
         return phks__fail(PHKS_ERROR_CORRUPT, "signature blob: %u scales",
                          o.scale_count);
@@ -230,7 +272,7 @@ phks_status phks_signature_decode(const void *buffer, size_t size,
     for (uint32_t s = 0; s < o.scale_count; s++)
         o.scales[s] = get_f64(&p);
     uint32_t count = get_u32(&p);
-    size_t need = blob_size(format, o.scale_count, count);
+    size_t need = blob_size(format, o.scale_count, count, has_geodesics(&o));
     if (size < need)
         return phks__fail(PHKS_ERROR_TRUNCATED,
                          "signature blob: %zu bytes, %u features need %zu",
@@ -248,6 +290,11 @@ phks_status phks_signature_decode(const void *buffer, size_t size,
 
     phks_signature *sig;
     phks_status st = phks__signature_alloc(count, o.scale_count, &sig);
+    if (st == PHKS_OK && has_geodesics(&o)) {
+        st = phks__signature_alloc_geodesic(sig);
+        if (st != PHKS_OK)
+            phks_signature_free(sig);
+    }
     if (st != PHKS_OK)
         return st;
     sig->options = o;
@@ -259,6 +306,8 @@ phks_status phks_signature_decode(const void *buffer, size_t size,
         for (size_t s = 0; s < o.scale_count; s++)
             sig->vectors[i * o.scale_count + s] = get_f64(&p);
     }
+    for (size_t k = 0; has_geodesics(&o) && k < phks__pair_count(count); k++)
+        sig->geodesic[k] = get_f32(&p);
     st = check_numbers(sig);
     if (st != PHKS_OK) {
         phks_signature_free(sig);

@@ -137,6 +137,29 @@ static inline size_t phks__grid_cell_index(const phks__grid *grid, size_t x,
 size_t phks__grid_neighbourhood(const phks__grid *grid, const size_t c[3],
                                size_t range[9][2]);
 
+/* ---- distances along the surface (geodesic.c) */
+/* The mesh's edges as arcs both ways, lengths in the unit box, plus, on a
+ * mesh of several pieces, an arc both ways from each vertex to the
+ * nearest vertex of another piece within straight-line distance `reach`
+ * (none when reach is 0). */
+typedef struct phks__geodesic_graph {
+    size_t n;          /* vertices                                   */
+    size_t *offset;    /* n + 1 offsets into next and length         */
+    uint32_t *next;
+    double *length;
+} phks__geodesic_graph;
+
+phks_status phks__geodesic_graph_build(const phks__unit_mesh *um, double reach,
+                                       phks__geodesic_graph *graph);
+void phks__geodesic_graph_release(phks__geodesic_graph *graph);
+/* Shortest-path distances from `source` into distance (n entries;
+ * INFINITY where unreachable). With targets (target_count vertices) the
+ * search stops once all of them are settled, and only their distances
+ * are final; with targets NULL every vertex's is. */
+phks_status phks__geodesic_run(const phks__geodesic_graph *graph,
+                               uint32_t source, const uint32_t *targets,
+                               size_t target_count, double *distance);
+
 /* ---- boundary proximity (boundary.c) */
 /* distance[v] = straight-line distance from vertex v to the nearest vertex
  * on a boundary edge, in the unit box of um, capped at cap (cap > 0; all

@@ -35,6 +35,7 @@ extern unsigned cli_explicit;
 #define CLI_SET_MARGIN 0x2u
 #define CLI_SET_SCALING 0x4u
 #define CLI_SET_QUADRATURE 0x8u
+#define CLI_SET_MATCHING 0x10u
 
 /* ---- errors and usage (cli_util.c) -------------------------------------- */
 /* The calling thread's last error message (without a leading "what: "),
@@ -116,6 +117,7 @@ void cli_json_options(const phks_options *o);
 const char *cli_scaling_name(int32_t hks_scaling);
 const char *cli_box_name(int32_t box);
 const char *cli_quadrature_name(int32_t quadrature);
+const char *cli_matching_name(int32_t matching);
 
 /* ---- databases (cli_db.c) ----------------------------------------------- */
 /* The options the signatures of a non-empty database were made with, into

@@ -93,6 +93,12 @@ int cli_db_options(phks_db *db, const char *path, phks_options *options)
                  cli_quadrature_name(options->quadrature));
         snprintf(theirs, sizeof theirs, "%s",
                  cli_quadrature_name(db_options.quadrature));
+    } else if ((cli_explicit & CLI_SET_MATCHING) &&
+               options->matching != db_options.matching) {
+        snprintf(name, sizeof name, "--matching");
+        snprintf(given, sizeof given, "%s", cli_matching_name(options->matching));
+        snprintf(theirs, sizeof theirs, "%s",
+                 cli_matching_name(db_options.matching));
     } else if ((cli_explicit & CLI_SET_MARGIN) &&
                options->boundary_margin != db_options.boundary_margin) {
         snprintf(name, sizeof name, "--boundary-margin");

@@ -70,6 +70,11 @@ const char *cli_quadrature_name(int32_t quadrature)
     return quadrature == PHKS_QUADRATURE_TRIANGLES ? "triangles" : "vertices";
 }
 
+const char *cli_matching_name(int32_t matching)
+{
+    return matching == PHKS_MATCHING_VERIFIED ? "verified" : "nearest";
+}
+
 const char *cli_box_name(int32_t box)
 {
     return box == PHKS_BOX_AXIS_ALIGNED ? "axis-aligned" : "principal";
@@ -91,8 +96,10 @@ void cli_json_options(const phks_options *o)
     fputs(", \"boundary_margin\": ", stdout);
     cli_json_number(o->boundary_margin);
     printf(", \"hks_scaling\": \"%s\", \"quadrature\": \"%s\", "
+           "\"matching\": \"%s\", "
            "\"simplify_above\": %u, \"simplify_target\": %u}",
            cli_scaling_name(o->hks_scaling),
-           cli_quadrature_name(o->quadrature), o->simplify_above,
+           cli_quadrature_name(o->quadrature),
+           cli_matching_name(o->matching), o->simplify_above,
            o->simplify_target);
 }

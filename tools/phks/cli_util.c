@@ -41,6 +41,8 @@ static const char *value_name(const char *field, double v)
         return cli_scaling_name((int32_t)v);
     if (strcmp(field, "quadrature") == 0)
         return cli_quadrature_name((int32_t)v);
+    if (strcmp(field, "matching") == 0)
+        return cli_matching_name((int32_t)v);
     if (strcmp(field, "box") == 0)
         return cli_box_name((int32_t)v);
     snprintf(buf, sizeof buf, "%g", v);
@@ -72,6 +74,7 @@ static void reword(char *buf, size_t size)
         {"hks_scaling", "--hks-scaling"},
         {"boundary_margin", "--boundary-margin"},
         {"quadrature", "--quadrature"},
+        {"matching", "--matching"},
     };
     for (size_t i = 0; i < sizeof fields / sizeof fields[0]; i++) {
         char pattern[64];
@@ -342,7 +345,7 @@ void cli_print_options(FILE *out, const char *prefix, const phks_options *o)
 {
     fprintf(out, "%soperator %s, box %s, tau %g, cutoff %g, eigenpairs %u, "
             "features %u at %g tau, %u scales (%g..%g tau), boundary margin "
-            "%g, HKS scaling %s, quadrature %s, HKS-simp above %u vertices "
+            "%g, HKS scaling %s, quadrature %s, matching %s, HKS-simp above %u vertices "
             "(target %u)\n",
             prefix, cli_operator_name(o->operator_kind),
             cli_box_name(o->box),
@@ -352,5 +355,6 @@ void cli_print_options(FILE *out, const char *prefix, const phks_options *o)
             o->boundary_margin,
             cli_scaling_name(o->hks_scaling),
             cli_quadrature_name(o->quadrature),
+            cli_matching_name(o->matching),
             o->simplify_above, o->simplify_target);
 }

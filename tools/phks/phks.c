@@ -19,6 +19,9 @@ static const char usage_text[] =
     "  --hks-scaling none|mean|local-area  (local-area)\n"
     "  --quadrature vertices|triangles     where the operator samples the\n"
     "                                      surface (vertices)\n"
+    "  --matching verified|nearest         how signatures are scored: verified\n"
+    "                                      correspondences, or the paper's\n"
+    "                                      nearest vectors (verified)\n"
     "  --threads N                         0 = one per CPU (0)\n"
     "  --object NAME                       read only this OBJ object or group,\n"
     "                                      or glTF/FBX/... node or mesh\n"
@@ -46,7 +49,8 @@ static const char usage_text[] =
 
 static const char *const globals[] = {"--operator", "--threads",
                                       "--boundary-margin", "--hks-scaling",
-                                      "--quadrature", "--object"};
+                                      "--quadrature", "--matching",
+                                      "--object"};
 
 /* Global options without a value. */
 static int take_flag(const char *arg)
@@ -106,6 +110,14 @@ static int set_global(const char *name, const char *v, phks_options *o)
             o->quadrature = PHKS_QUADRATURE_VERTICES;
         else if (strcmp(v, "triangles") == 0)
             o->quadrature = PHKS_QUADRATURE_TRIANGLES;
+        else
+            return -1;
+    } else if (strcmp(name, "--matching") == 0) {
+        cli_explicit |= CLI_SET_MATCHING;
+        if (strcmp(v, "verified") == 0)
+            o->matching = PHKS_MATCHING_VERIFIED;
+        else if (strcmp(v, "nearest") == 0)
+            o->matching = PHKS_MATCHING_NEAREST;
         else
             return -1;
     } else {
