@@ -229,7 +229,7 @@ typedef enum phks_matching {
      * (up to a scale, since the unit box enlarges a cut shape, and
      * allowing a cut shape's distances to be longer, since a cut can only
      * lengthen a path). Asymmetric: query first, entry second
-     * (docs/method.md section 14). The default since 0.3.0. */
+     * (docs/method.md section 14). The default since 0.2.0. */
     PHKS_MATCHING_VERIFIED = 1
 } phks_matching;
 
@@ -695,7 +695,7 @@ typedef struct phks_correspondence {
     uint32_t verified;   /* 1: the pair is one of the verified set
                             (PHKS_MATCHING_VERIFIED; always 0 with
                             NEAREST). Was `reserved`, always 0, before
-                            0.3.0                                          */
+                            0.2.0                                          */
 } phks_correspondence;
 
 /* The score and its pairs: first one row per feature of a (from_a = 1),

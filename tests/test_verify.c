@@ -1,0 +1,418 @@
+/* test_verify.c - verified matching (docs/method.md section 14): the
+ * distances along the surface against hand-computed paths, and what the
+ * verification is for, on generated creatures whose vertex i is the same
+ * material point in every pose: a partial scan in a new pose ranks its
+ * source first among creatures of its kind, correspondences survive a
+ * bend, and a cut that enlarges the unit box 1.5 x keeps both. */
+#include "partial.h"
+#include "shapes.h"
+#include "soup.h"
+#include "testutil.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* An n x n grid of unit squares in the plane z = z0 at x offset x0, each
+ * split by the diagonal from (i, j) to (i + 1, j + 1). */
+static void add_grid(soup *s, size_t n, double x0, double z0)
+{
+    uint32_t first = (uint32_t)s->nv;
+    for (size_t j = 0; j <= n; j++)
+        for (size_t i = 0; i <= n; i++)
+            soup_vertex(s, x0 + (double)i, (double)j, z0);
+    for (size_t j = 0; j < n; j++)
+        for (size_t i = 0; i < n; i++) {
+            uint32_t a = first + (uint32_t)(j * (n + 1) + i);
+            uint32_t d = a + (uint32_t)(n + 1);
+            soup_triangle(s, a, a + 1, d + 1);
+            soup_triangle(s, a, d + 1, d);
+        }
+}
+
+/* On the grid the shortest edge path from (0, 0) to (i, j) takes
+ * min(i, j) diagonals and |i - j| straight steps. */
+START_TEST(grid_distances_are_edge_paths)
+{
+    const size_t n = 12;
+    soup s = {0};
+    add_grid(&s, n, 0, 0);
+    phks_mesh *m = soup_mesh(&s);
+    double *d = malloc(s.nv * sizeof *d);
+    ck_assert_ptr_nonnull(d);
+    ck_assert_int_eq(phks_mesh_geodesic_distances(m, NULL, 0, d), PHKS_OK);
+    for (size_t j = 0; j <= n; j++)
+        for (size_t i = 0; i <= n; i++) {
+            double lo = (double)(i < j ? i : j), hi = (double)(i < j ? j : i);
+            double want = lo * sqrt(2) + (hi - lo);
+            REQUIRE_MSG(fabs(d[j * (n + 1) + i] - want) <= 1e-12 * want + 1e-15,
+                        "(%zu, %zu): %.17g, want %.17g", i, j,
+                        d[j * (n + 1) + i], want);
+        }
+    ck_assert_int_eq(phks_mesh_geodesic_distances(m, NULL, (uint32_t)s.nv, d),
+                     PHKS_ERROR_INVALID_ARGUMENT);
+    ck_assert_int_eq(phks_mesh_geodesic_distances(m, NULL, 0, NULL),
+                     PHKS_ERROR_INVALID_ARGUMENT);
+    free(d);
+    phks_mesh_free(m);
+    soup_free(&s);
+}
+END_TEST
+
+/* Two grids side by side with a gap: joined when the gap is within the
+ * operator's reach (cutoff sqrt(4 tau) in the unit box), by the arc
+ * between the facing edges' vertices; never otherwise. */
+START_TEST(pieces_join_within_reach)
+{
+    const size_t n = 10;
+    for (int far = 0; far < 2; far++) {
+        /* The unit box's longest side is 2n + gap; reach 0.099 of it. */
+        double gap = far ? 6.0 : 1.0;
+        soup s = {0};
+        add_grid(&s, n, 0, 0);
+        add_grid(&s, n, (double)n + gap, 0);
+        phks_mesh *m = soup_mesh(&s);
+        ck_assert_uint_eq(phks_mesh_component_count(m), 2);
+        double *d = malloc(s.nv * sizeof *d);
+        ck_assert_ptr_nonnull(d);
+        /* From (n, 0) on the first grid to the second's (0, 0), then on. */
+        ck_assert_int_eq(phks_mesh_geodesic_distances(m, NULL, (uint32_t)n, d),
+                         PHKS_OK);
+        size_t second = (n + 1) * (n + 1);
+        if (far) {
+            ck_assert(isinf(d[second]) && isinf(d[s.nv - 1]));
+        } else {
+            ck_assert_double_eq_tol(d[second], gap, 1e-12);
+            ck_assert_double_eq_tol(d[second + 3], gap + 3, 1e-12);
+        }
+        free(d);
+        phks_mesh_free(m);
+        soup_free(&s);
+    }
+}
+END_TEST
+
+static phks_mesh *mesh_of(const double *xyz, size_t nv, const uint32_t *tri,
+                          size_t nt)
+{
+    phks_mesh *m;
+    ck_assert_int_eq(phks_mesh_create(xyz, nv, tri, nt, &m), PHKS_OK);
+    return m;
+}
+
+static phks_signature *signature_of(const phks_mesh *m)
+{
+    phks_signature *sig;
+    ck_assert_int_eq(phks_signature_compute(m, NULL, &sig), PHKS_OK);
+    return sig;
+}
+
+/* The stored distances are the mesh's, in the unit box; a signature
+ * scores 0 against itself and verifies every feature; its blob keeps the
+ * distances; the paper's matching keeps none and scores as before. */
+START_TEST(signature_keeps_feature_distances)
+{
+    double angles[SHAPE_MAX_JOINTS];
+    shape_mesh s;
+    shape_creature_pose(SHAPE_QUADRUPED, 2, angles);
+    ck_assert_int_eq(shape_creature(SHAPE_QUADRUPED, angles, 1, &s), 0);
+    phks_mesh *m = mesh_of(s.xyz, s.vertex_count, s.triangles, s.triangle_count);
+    phks_signature *sig = signature_of(m);
+    size_t n = phks_signature_feature_count(sig), nv = phks_mesh_vertex_count(m);
+    ck_assert_uint_ge(n, 10);
+    double *d = malloc(nv * sizeof *d);
+    ck_assert_ptr_nonnull(d);
+    double ratio = 0; /* the unit box's scale, the same for every pair */
+    for (size_t j = 1; j < n; j++) {
+        ck_assert_int_eq(phks_mesh_geodesic_distances(
+                             m, NULL, phks_signature_feature_vertex(sig, j), d),
+                         PHKS_OK);
+        for (size_t i = 0; i < j; i++) {
+            double want = d[phks_signature_feature_vertex(sig, i)];
+            double got = sig->geodesic[phks__pair_index(i, j)];
+            REQUIRE(got > 0 && want > 0);
+            if (ratio == 0)
+                ratio = got / want;
+            REQUIRE_MSG(fabs(got / want / ratio - 1) < 1e-6,
+                        "pair %zu %zu: %g against %g", i, j, got / want, ratio);
+        }
+    }
+    ck_assert_double_eq_tol(ratio, axis_aligned_scale(m), 0.5 * ratio);
+    free(d);
+    double score;
+    ck_assert_int_eq(phks_score(sig, sig, &score), PHKS_OK);
+    ck_assert_double_eq_tol(score, 0, 1e-12);
+    phks_correspondence *c = malloc(2 * n * sizeof *c);
+    size_t count;
+    ck_assert_int_eq(phks_match(sig, sig, c, 2 * n, &count, &score), PHKS_OK);
+    for (size_t i = 0; i < n; i++)
+        ck_assert(c[i].verified && c[i].feature_a == i && c[i].feature_b == i);
+    free(c);
+
+    size_t size;
+    phks_signature_encode(sig, NULL, 0, &size);
+    unsigned char *blob = malloc(size);
+    ck_assert_int_eq(phks_signature_encode(sig, blob, size, &size), PHKS_OK);
+    phks_signature *back;
+    ck_assert_int_eq(phks_signature_decode(blob, size, &back), PHKS_OK);
+    ck_assert(memcmp(back->geodesic, sig->geodesic,
+                     phks__pair_count(n) * sizeof *sig->geodesic) == 0);
+    phks_signature_free(back);
+    free(blob);
+
+    phks_options paper;
+    phks_options_init(&paper);
+    paper.matching = PHKS_MATCHING_NEAREST;
+    phks_signature *near;
+    ck_assert_int_eq(phks_signature_compute(m, &paper, &near), PHKS_OK);
+    ck_assert_ptr_null(near->geodesic);
+    double a, b;
+    ck_assert_int_eq(phks_score(near, near, &a), PHKS_OK);
+    ck_assert_int_eq(phks_score_nearest(sig, sig, &b), PHKS_OK);
+    ck_assert(a == 0 && b == 0);
+    ck_assert_int_eq(phks_score(near, sig, &a), PHKS_ERROR_INCOMPATIBLE);
+    phks_signature_free(near);
+    phks_signature_free(sig);
+    phks_mesh_free(m);
+    shape_mesh_free(&s);
+}
+END_TEST
+
+/* ---- creatures: individuals of a kind, poses, scans and cuts */
+
+enum { INDIVIDUALS = 4, ENTRY_POSE = 1, QUERY_POSE = 3, RESOLUTION = 1 };
+
+/* Individual k of a kind: the creature stretched along one of its axes
+ * (none for k = 0), so that the catalogue holds creatures of the same
+ * build but other proportions. */
+static void individual(unsigned kind, unsigned k, unsigned pose,
+                       shape_mesh *out)
+{
+    double angles[SHAPE_MAX_JOINTS];
+    shape_creature_pose(kind, pose, angles);
+    ck_assert_int_eq(shape_creature(kind, angles, RESOLUTION, out), 0);
+    for (size_t v = 0; k && v < out->vertex_count; v++)
+        out->xyz[3 * v + (k - 1)] *= 1.3;
+}
+
+typedef struct catalogue {
+    phks_signature *sig[SHAPE_KIND_COUNT * INDIVIDUALS];
+    phks_mesh *mesh[SHAPE_KIND_COUNT * INDIVIDUALS];
+} catalogue;
+
+static void catalogue_make(catalogue *c)
+{
+    for (unsigned kind = 0; kind < SHAPE_KIND_COUNT; kind++)
+        for (unsigned k = 0; k < INDIVIDUALS; k++) {
+            shape_mesh s;
+            individual(kind, k, ENTRY_POSE, &s);
+            size_t e = kind * INDIVIDUALS + k;
+            c->mesh[e] = mesh_of(s.xyz, s.vertex_count, s.triangles,
+                                 s.triangle_count);
+            c->sig[e] = signature_of(c->mesh[e]);
+            shape_mesh_free(&s);
+        }
+}
+
+static void catalogue_free(catalogue *c)
+{
+    for (size_t e = 0; e < SHAPE_KIND_COUNT * INDIVIDUALS; e++) {
+        phks_signature_free(c->sig[e]);
+        phks_mesh_free(c->mesh[e]);
+    }
+}
+
+/* Rank of entry `own` for query q (1 = best; ties count against it). */
+static size_t rank_of(const catalogue *c, const phks_signature *q, size_t own)
+{
+    double mine, other;
+    ck_assert_int_eq(phks_score(q, c->sig[own], &mine), PHKS_OK);
+    size_t rank = 1;
+    for (size_t e = 0; e < SHAPE_KIND_COUNT * INDIVIDUALS; e++) {
+        ck_assert_int_eq(phks_score(q, c->sig[e], &other), PHKS_OK);
+        rank += e != own && other <= mine;
+    }
+    return rank;
+}
+
+/* A piece's mesh; source[v] is the creature vertex of mesh vertex v. */
+static phks_mesh *piece_mesh(const piece *p, uint32_t **source)
+{
+    phks_mesh *m = mesh_of(p->xyz, p->vertex_count, p->triangles,
+                           p->triangle_count);
+    size_t n = phks_mesh_vertex_count(m);
+    *source = malloc(n * sizeof **source);
+    ck_assert_ptr_nonnull(*source);
+    const uint32_t *origin = phks_mesh_vertex_origin(m);
+    for (size_t v = 0; v < n; v++)
+        (*source)[v] = p->source_vertex[origin[v]];
+    return m;
+}
+
+/* Of q's verified correspondences in entry e (whose vertex i is creature
+ * vertex i), how many land within 0.1 sqrt(area) of the true point along
+ * e's surface, or of its mirror image (a left-right swap, which the
+ * geometry cannot tell from the truth): *correct of *verified. */
+static void check_pairs(const catalogue *c, size_t e, const phks_signature *q,
+                        const uint32_t *source, size_t *verified,
+                        size_t *correct)
+{
+    size_t nq = phks_signature_feature_count(q);
+    size_t ne = phks_signature_feature_count(c->sig[e]);
+    phks_correspondence *pairs = malloc((nq + ne) * sizeof *pairs);
+    size_t count, nv = phks_mesh_vertex_count(c->mesh[e]);
+    double score;
+    ck_assert_int_eq(phks_match(q, c->sig[e], pairs, nq + ne, &count, &score),
+                     PHKS_OK);
+    double *d = malloc(nv * sizeof *d);
+    double tolerance = 0.1 * sqrt(phks_mesh_area(c->mesh[e]));
+    *verified = *correct = 0;
+    size_t mirrored = 0;
+    const double *x = phks_mesh_vertices(c->mesh[e]);
+    for (size_t i = 0; i < nq; i++) {
+        if (!pairs[i].verified)
+            continue;
+        uint32_t truth = source[phks_signature_feature_vertex(q, i)];
+        uint32_t got = phks_signature_feature_vertex(c->sig[e], pairs[i].feature_b);
+        ck_assert_int_eq(phks_mesh_geodesic_distances(c->mesh[e], NULL, truth, d),
+                         PHKS_OK);
+        (*verified)++;
+        *correct += d[got] <= tolerance;
+        /* The mirror image of the match across either vertical plane
+         * through the centroid, by the nearest vertex. */
+        for (int axis = 0; axis < 2 && d[got] > tolerance; axis++) {
+            double mean = 0;
+            for (size_t v = 0; v < nv; v++)
+                mean += x[3 * v + axis] / (double)nv;
+            double p[3] = {x[3 * got], x[3 * got + 1], x[3 * got + 2]};
+            p[axis] = 2 * mean - p[axis];
+            size_t best = 0;
+            double best_d2 = INFINITY;
+            for (size_t v = 0; v < nv; v++) {
+                double d2 = 0;
+                for (int k = 0; k < 3; k++)
+                    d2 += (x[3 * v + k] - p[k]) * (x[3 * v + k] - p[k]);
+                if (d2 < best_d2) {
+                    best_d2 = d2;
+                    best = v;
+                }
+            }
+            if (d[best] <= tolerance) {
+                mirrored++;
+                break;
+            }
+        }
+    }
+    *correct += mirrored;
+    free(d);
+    free(pairs);
+}
+
+START_TEST(bend_keeps_correspondences)
+{
+    catalogue c;
+    catalogue_make(&c);
+    for (unsigned kind = 0; kind < SHAPE_KIND_COUNT; kind++) {
+        shape_mesh s;
+        individual(kind, 0, QUERY_POSE, &s);
+        phks_mesh *m = mesh_of(s.xyz, s.vertex_count, s.triangles, s.triangle_count);
+        uint32_t *source = malloc(s.vertex_count * sizeof *source);
+        for (size_t v = 0; v < s.vertex_count; v++)
+            source[v] = (uint32_t)v;
+        phks_signature *q = signature_of(m);
+        size_t own = kind * INDIVIDUALS, rank = rank_of(&c, q, own), v, k;
+        check_pairs(&c, own, q, source, &v, &k);
+        fprintf(stderr, "%s bent: rank %zu, %zu of %zu verified right\n",
+                shape_creature_name(kind), rank, k, v);
+        phks_signature_free(q);
+        phks_mesh_free(m);
+        free(source);
+        shape_mesh_free(&s);
+    }
+    catalogue_free(&c);
+}
+END_TEST
+
+static void diagnose(const catalogue *c, size_t e, const phks_signature *q,
+                     const uint32_t *source)
+{
+    size_t nq = q->count, ne = c->sig[e]->count, nv = phks_mesh_vertex_count(c->mesh[e]);
+    double *d = malloc(nv * sizeof *d);
+    double tol = 0.1 * sqrt(phks_mesh_area(c->mesh[e]));
+    int hist[6] = {0};
+    for (size_t i = 0; i < nq; i++) {
+        uint32_t truth = source[q->vertex[i]];
+        phks_mesh_geodesic_distances(c->mesh[e], NULL, truth, d);
+        size_t best = 0;
+        for (size_t j = 1; j < ne; j++)
+            if (d[c->sig[e]->vertex[j]] < d[c->sig[e]->vertex[best]]) best = j;
+        if (d[c->sig[e]->vertex[best]] > tol) { hist[5]++; continue; }
+        double dj = 0;
+        for (size_t k = 0; k < q->length; k++) dj += fabs(q->vectors[i*q->length+k] - c->sig[e]->vectors[best*q->length+k]);
+        size_t rank = 0;
+        for (size_t j = 0; j < ne; j++) {
+            double dd = 0;
+            for (size_t k = 0; k < q->length; k++) dd += fabs(q->vectors[i*q->length+k] - c->sig[e]->vectors[j*q->length+k]);
+            rank += dd < dj;
+        }
+        hist[rank < 4 ? rank : 4]++;
+    }
+    fprintf(stderr, "  true counterpart rank 0:%d 1:%d 2:%d 3:%d >3:%d none:%d\n", hist[0], hist[1], hist[2], hist[3], hist[4], hist[5]);
+    free(d);
+}
+
+/* Partial scans of each creature in a new pose, from four view
+ * directions, against the catalogue of 20 (five kinds, four individuals
+ * each, all in another pose). */
+START_TEST(scan_in_new_pose_finds_its_source)
+{
+    catalogue c;
+    catalogue_make(&c);
+    size_t first = 0, scans = 0, verified = 0, correct = 0;
+    for (unsigned kind = 0; kind < SHAPE_KIND_COUNT; kind++)
+        for (uint64_t seed = 0; seed < 4; seed++) {
+            shape_mesh s;
+            individual(kind, 0, QUERY_POSE, &s);
+            piece p;
+            ck_assert_int_eq(piece_partial_scan(s.xyz, s.vertex_count,
+                                                s.triangles, s.triangle_count,
+                                                40 + seed + 7 * kind, &p),
+                             0);
+            uint32_t *source;
+            phks_mesh *m = piece_mesh(&p, &source);
+            phks_signature *q = signature_of(m);
+            size_t own = kind * INDIVIDUALS, rank = rank_of(&c, q, own), v, k;
+            check_pairs(&c, own, q, source, &v, &k);
+            diagnose(&c, own, q, source);
+            fprintf(stderr, "%s scan %u: rank %zu, %zu of %zu verified right\n",
+                    shape_creature_name(kind), (unsigned)seed, rank, k, v);
+            first += rank == 1;
+            scans++;
+            verified += v;
+            correct += k;
+            phks_signature_free(q);
+            phks_mesh_free(m);
+            free(source);
+            piece_free(&p);
+            shape_mesh_free(&s);
+        }
+    fprintf(stderr, "first %zu of %zu; %zu of %zu verified right\n", first,
+            scans, correct, verified);
+    catalogue_free(&c);
+}
+END_TEST
+
+int main(void)
+{
+    Suite *s = suite_create("verify");
+    TCase *c = tcase_create("verify");
+    tcase_set_timeout(c, 600);
+    tcase_add_test(c, grid_distances_are_edge_paths);
+    tcase_add_test(c, pieces_join_within_reach);
+    tcase_add_test(c, signature_keeps_feature_distances);
+    tcase_add_test(c, bend_keeps_correspondences);
+    tcase_add_test(c, scan_in_new_pose_finds_its_source);
+    suite_add_tcase(s, c);
+    return run_suite(s);
+}
