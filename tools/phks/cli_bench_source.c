@@ -122,6 +122,7 @@ static void source_task(void *ctx, size_t index)
     phks_status st = !whole->sig ? PHKS_ERROR_INVALID_ARGUMENT
                      : g.of ? bench_load(model, &mesh, &reason)
                             : PHKS_ERROR_OUT_OF_MEMORY;
+    double unit = st == PHKS_OK ? sqrt(phks_mesh_area(mesh)) : 0;
     g.mesh = mesh;
     for (unsigned s = 1; s <= p->seeds; s++)
         for (int k = KIND_PARTIAL; k < KIND_COUNT; k++) {
@@ -129,7 +130,7 @@ static void source_task(void *ctx, size_t index)
             v->source_rank = v->sig && whole->sig
                 ? own_rank(p, c->db, index, v->sig) : -1;
             if (st == PHKS_OK && v->sig && v->truth &&
-                (st = match(&g, sqrt(phks_mesh_area(mesh)), v)) != PHKS_OK)
+                (st = match(&g, unit, v)) != PHKS_OK)
                 reason = cli_reason(model->row->path, st);
         }
     if (whole->sig && st != PHKS_OK)
