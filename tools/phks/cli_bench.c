@@ -310,15 +310,16 @@ static int run(const bench_args *a, bench_plan *p, FILE *qout)
     cli_progress_start(p->item_count, "signatures");
     cli_pool_run(p->item_count, workers, bench_compute, p);
     cli_progress_end();
-    int rc = p->source && bench_source_run(p, workers);
-    rc |= score_all(p, qout, a->json);
+    /* A source part whose database failed reports nothing (null). */
+    int source = p->source && bench_source_run(p, workers) == 0;
+    int rc = score_all(p, qout, a->json) | (p->source && !source);
     if (a->json) {
         fputs(",\n  \"source\": ", stdout);
-        if (p->source)
+        if (source)
             bench_source_json(p, a->one_character);
         else
             fputs("null", stdout);
-    } else if (p->source)
+    } else if (source)
         bench_source_print(p, a->one_character);
     print_footer(p, now() - start, a->json);
     return rc;
