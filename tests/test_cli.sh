@@ -516,7 +516,7 @@ run "$phks" db frob t.db; expect_rc 2 "unknown db command"
 
 # ---- bench ------------------------------------------------------------------
 run "$phks" bench set/MANIFEST.tsv --prefix "" --cache cache \
-    --queries-out q.tsv -j 2
+    --queries-out q.tsv -j 2 --no-source
 expect_rc 0 "bench"
 expect_out "| queries | n | failed | Top-1 | Top-3 | Top-5 |"
 expect_out "^| all | "; expect_out "^| partial+incomplete | "
@@ -530,12 +530,12 @@ head -1 q.tsv | grep -q "^file	kind	seed	class	rank	top1_label$" ||
     fail "bench: cache has not 12 signatures"
 cp q.tsv q1.tsv
 run "$phks" bench set/MANIFEST.tsv --prefix "" --cache cache \
-    --queries-out q.tsv -j 1
+    --queries-out q.tsv -j 1 --no-source
 expect_rc 0 "bench from the cache"
 expect_out "Signatures: 0 computed, 12 from the cache"
 cmp -s q.tsv q1.tsv || fail "bench: results differ with the cache and -j 1"
 run "$phks" bench set/MANIFEST.tsv --prefix "" --cache cache -j 1 --json \
-    --progress
+    --progress --no-source
 expect_rc 0 "bench --json"
 expect_err "^phks: 12/12 signatures$"
 $py -c 'import json,sys; d=json.load(sys.stdin)
@@ -548,17 +548,59 @@ assert rows["all"]["n"] + rows["all"]["failed"] == 6
 assert rows["all"]["n"] == sum(rows[k]["n"] for k in ("complete", "partial", "incomplete"))
 assert len(d["seeds"]) == 1 and d["seeds"][0]["results"] == p
 assert p["database"]["entries"] == 6 and len(p["cut"]) == 3
+assert d["source"] is None
 print("| all | %d | %d |" % (rows["all"]["n"], rows["all"]["failed"]))' \
     < out > all_row || fail "bench --json"
-run "$phks" bench set/MANIFEST.tsv --prefix "" --cache cache -j 1
+run "$phks" bench set/MANIFEST.tsv --prefix "" --cache cache -j 1 --no-source
 expect_out "^$(cat all_row)"
+grep -q "Source retrieval" out && fail "bench --no-source: a source table"
+# The source part: every version of every model, the protocol's cached.
+run "$phks" bench set/MANIFEST.tsv --prefix "" --cache cache -j 2 --json \
+    --one-character bar
+expect_rc 0 "bench with the source part"
+$py -c 'import json,sys; d=json.load(sys.stdin)
+assert d["signatures"] == {"computed": 12, "cached": 12, "failed": 0}
+s = d["source"]
+assert s["one_character"] == "bar" and s["database"] == {"entries": 8, "failed": 0}
+assert len(s["seeds"]) == 1 and s["seeds"][0]["results"] == s["pooled"]
+r = {x["queries"]: x for x in s["pooled"]["retrieval"]}
+c = {x["versions"]: x for x in s["pooled"]["correspondences"]}
+assert list(r) == list(c) == ["partial", "incomplete", "partial+incomplete"]
+assert r["partial+incomplete"]["n"] == 16 and c["partial+incomplete"]["n"] == 16
+assert r["partial"]["top1_hits"] <= r["partial"]["top5_hits"] <= 8
+assert c["partial"]["verified_correct"] <= c["partial"]["verified"] <= c["partial"]["features"]
+assert c["partial"]["median_error"] >= 0' < out ||
+    fail "bench --json: the source part"
+run "$phks" bench set/MANIFEST.tsv --prefix "" --cache cache -j 1
+expect_out "^## Source retrieval and correspondences"
+expect_out "^| versions | n | failed | features | correct, percent | "
+expect_out "^| partial+incomplete | 16 | 0 | "
 run "$phks" bench set/MANIFEST.tsv --prefix "" --seeds 2 --classes star \
     --max-per-class 4
 expect_rc 0 "bench --seeds 2"
 expect_out "^## Seed 2"; expect_out "^## All seeds (pooled)"
+expect_out "^### Seed 2"; expect_out "^### All seeds (pooled)"
 run "$phks" bench set/MANIFEST.tsv --prefix "" --classes nope
 expect_rc 1 "bench of an unknown class"; expect_err "no class nope"
 run "$phks" bench missing.tsv; expect_rc 1 "bench of a missing manifest"
 expect_err "^phks: missing.tsv: "
 run "$phks" bench set/MANIFEST.tsv --seeds 0; expect_rc 2 "bench --seeds 0"
+# The source part on real models (two classes of small meshes), when the
+# shared data is there: its rates are numbers in [0, 100].
+shared=${PHKS_SHARED_MESHES:-}
+if [ -n "$shared" ] && [ -f "$shared/MANIFEST.tsv" ]; then
+    run "$phks" bench "$shared/MANIFEST.tsv" --classes Bearing,Plier \
+        --max-per-class 4 -j 2 --json
+    expect_rc 0 "bench of shared models"
+    $py -c 'import json,sys; d=json.load(sys.stdin)
+p = d["source"]["pooled"]
+rows = p["retrieval"] + p["correspondences"]
+assert len(rows) == 6
+for r in rows:
+    for k in ("top1", "top5") if "queries" in r else ("percent", "verified_percent"):
+        assert isinstance(r[k], (int, float)) and 0 <= r[k] <= 100, (r, k)' \
+        < out || fail "bench of shared models: the source part"
+else
+    echo "cli: no shared meshes: the bench of real models is skipped"
+fi
 echo "cli: all checks passed"

@@ -2,8 +2,9 @@
  * cli_bench.c - `phks bench MANIFEST`: the retrieval protocol of the
  * paper's section 5 (docs/cli.md states it in full). This file chooses the
  * models, lays out the signatures to compute, runs them on the work pool
- * and prints the report; cli_bench_item.c computes one signature and
- * cli_bench_score.c scores one seed.
+ * and prints the report; cli_bench_item.c computes one signature,
+ * cli_bench_score.c scores one seed and cli_bench_source.c the source
+ * part.
  */
 #include "cli_bench.h"
 
@@ -16,7 +17,7 @@
 static const char usage[] =
     "bench MANIFEST [--prefix P] [--classes A,B] [--max-per-class M]\n"
     "                  [--seeds N] [--cache DIR] [--queries-out TSV] [-j N]\n"
-    "                  [--json]\n"
+    "                  [--json] [--no-source] [--one-character A,B]\n"
     "  --prefix P          rows whose file starts with P (psb/)\n"
     "  --classes A,B       only these classes (all)\n"
     "  --max-per-class M   the first M models of each class (all)\n"
@@ -24,12 +25,16 @@ static const char usage[] =
     "  --cache DIR         read and write signatures there (no cache)\n"
     "  --queries-out TSV   one line per query (none)\n"
     "  -j N                worker threads, 1..1024 (the online CPUs)\n"
-    "  --json              the report as JSON (markdown)";
+    "  --json              the report as JSON (markdown)\n"
+    "  --no-source         skip source retrieval and correspondences\n"
+    "  --one-character A,B classes whose models are poses of one character\n"
+    "                      (Armadillo)";
 
 typedef struct bench_args {
     const char *manifest, *prefix, *classes, *cache, *queries_out;
+    const char *one_character;
     unsigned long max_per_class, seeds, workers;
-    int json;
+    int json, no_source;
 } bench_args;
 
 static int parse_args(int argc, char **argv, bench_args *a)
@@ -40,9 +45,12 @@ static int parse_args(int argc, char **argv, bench_args *a)
         {"--max-per-class", &max, NULL},  {"--seeds", &seeds, NULL},
         {"--cache", &a->cache, NULL},     {"--queries-out", &a->queries_out, NULL},
         {"-j", &jobs, NULL},              {"--json", NULL, &a->json},
+        {"--no-source", NULL, &a->no_source},
+        {"--one-character", &a->one_character, NULL},
     };
     int n;
     a->prefix = "psb/";
+    a->one_character = "Armadillo";
     a->max_per_class = (unsigned long)-1;
     a->workers = cli_cpu_count();
     if (cli_parse(argc, argv, 1, opts, sizeof opts / sizeof opts[0], &n) ||
@@ -110,6 +118,8 @@ static void add_class(const bench_args *a, const cli_row *rows, size_t n,
         m->row = &rows[r];
         m->is_query = i++ % 4 == 3;
         m->db_kind = m->is_query ? KIND_COMPLETE : (int)(j++ % 3);
+        m->all_versions = m->is_query || p->source;
+        m->one_character = listed(a->one_character, m->row->cls);
     }
 }
 
@@ -134,14 +144,14 @@ static int select_models(const bench_args *a, const cli_row *rows, size_t n,
 
 /* Items: a query model's complete version, then per seed its partial and
  * incomplete ones; a database model's one version (once if complete, else
- * per seed). */
+ * per seed), or with the source part all its versions as a query model's. */
 static int plan_items(bench_plan *p)
 {
     size_t count = 0;
     for (size_t m = 0; m < p->model_count; m++) {
         bench_model *model = &p->models[m];
         model->first_item = count;
-        count += model->is_query ? 1 + 2 * (size_t)p->seeds
+        count += model->all_versions ? 1 + 2 * (size_t)p->seeds
                  : model->db_kind == KIND_COMPLETE ? 1 : p->seeds;
     }
     p->items = calloc(count, sizeof *p->items);
@@ -152,7 +162,7 @@ static int plan_items(bench_plan *p)
         for (int k = 0; k < KIND_COUNT; k++)
             for (unsigned s = 1; s <= p->seeds; s++) {
                 const bench_model *model = &p->models[m];
-                if ((!model->is_query && k != model->db_kind) ||
+                if ((!model->all_versions && k != model->db_kind) ||
                     (k == KIND_COMPLETE && s > 1))
                     continue;
                 bench_item *it = &p->items[bench_item_of(p, m, k, s)];
@@ -300,7 +310,17 @@ static int run(const bench_args *a, bench_plan *p, FILE *qout)
     cli_progress_start(p->item_count, "signatures");
     cli_pool_run(p->item_count, workers, bench_compute, p);
     cli_progress_end();
-    int rc = score_all(p, qout, a->json);
+    /* A source part whose database failed reports nothing (null). */
+    int source = p->source && bench_source_run(p, workers) == 0;
+    int rc = score_all(p, qout, a->json) | (p->source && !source);
+    if (a->json) {
+        fputs(",\n  \"source\": ", stdout);
+        if (source)
+            bench_source_json(p, a->one_character);
+        else
+            fputs("null", stdout);
+    } else if (source)
+        bench_source_print(p, a->one_character);
     print_footer(p, now() - start, a->json);
     return rc;
 }
@@ -317,7 +337,7 @@ int cli_bench(int argc, char **argv, const phks_options *options)
     if (cli_manifest_read(a.manifest, &rows, &n) != 0)
         return 1;
     bench_plan p = {.seeds = (unsigned)a.seeds, .options = *options,
-                    .cache_dir = a.cache};
+                    .cache_dir = a.cache, .source = !a.no_source};
     p.options.threads = 1;
     FILE *qout = NULL;
     int rc = check_classes(&a, rows, n) || select_models(&a, rows, n, &p);
@@ -329,8 +349,12 @@ int cli_bench(int argc, char **argv, const phks_options *options)
         rc = run(&a, &p, qout);
     if (qout && fclose(qout) != 0)
         rc = cli_error(a.queries_out, strerror(errno));
-    for (size_t i = 0; i < p.item_count; i++)
+    for (size_t i = 0; i < p.item_count; i++) {
         phks_signature_free(p.items[i].sig);
+        free(p.items[i].truth);
+        free(p.items[i].error);
+        free(p.items[i].verified);
+    }
     free(p.items);
     free(p.models);
     cli_manifest_free(rows, n);

@@ -1,8 +1,9 @@
 /*
  * cli_bench.h - the parts of `phks bench` (docs/cli.md, "bench"): the plan
  * of models and signatures to compute (cli_bench.c), computing one
- * signature (cli_bench_item.c), and scoring and reporting
- * (cli_bench_score.c).
+ * signature (cli_bench_item.c), scoring and reporting the protocol
+ * (cli_bench_score.c), and the source part: retrieving each version's own
+ * source and checking its correspondences (cli_bench_source.c).
  */
 #ifndef PHKS_CLI_BENCH_H
 #define PHKS_CLI_BENCH_H
@@ -18,11 +19,17 @@ extern const char *const bench_kind_name[KIND_COUNT];
 /* "Next to the cut": within this fraction of the longest side of the
  * source mesh's axis-aligned bounding box from a cut vertex. */
 #define BENCH_CUT_RADIUS 0.05
+/* A correspondence is correct within this fraction of sqrt(area) of the
+ * source mesh, along its surface, from the true point. */
+#define BENCH_CORRECT_RADIUS 0.1
 
 typedef struct bench_model {
     const cli_row *row;
     int is_query;      /* index in its class % 4 == 3                     */
     int db_kind;       /* database models: their one version             */
+    int all_versions;  /* items of every kind: query models, and every
+                          model with the source part                      */
+    int one_character; /* its class's models are poses of one character  */
     size_t first_item; /* its versions' items, see bench_item_of          */
 } bench_model;
 
@@ -36,6 +43,15 @@ typedef struct bench_item {
     size_t near_cut;         /* ... and those next to a cut vertex        */
     size_t vertices;         /* the piece's vertices                      */
     size_t vertices_near_cut;/* ... and those next to a cut vertex        */
+    /* The source part, partial and incomplete versions: */
+    uint32_t *truth;         /* per feature: the vertex of the source mesh
+                                it came from                              */
+    long source_rank;        /* of its source among the first
+                                BENCH_QUERY_DEPTH; 0 beyond; -1 failed    */
+    int matched;             /* error and verified are set                */
+    double *error;           /* per feature: its match's distance from the
+                                true point, in sqrt(source area)          */
+    unsigned char *verified; /* per feature: its match is verified        */
 } bench_item;
 
 typedef struct bench_plan {
@@ -46,7 +62,17 @@ typedef struct bench_plan {
     unsigned seeds;          /* seed bases 1..seeds                        */
     phks_options options;    /* threads = 1 per worker                     */
     const char *cache_dir;   /* NULL: no cache                             */
+    int source;              /* with the source part                       */
 } bench_plan;
+
+/* The sets of queries the tables report: name and one bit per kind. */
+typedef struct bench_set {
+    const char *name;
+    unsigned kinds;
+} bench_set;
+/* complete, partial, incomplete, partial+incomplete, all. */
+#define BENCH_SET_COUNT 5
+extern const bench_set bench_sets[BENCH_SET_COUNT];
 
 /* Per-seed or pooled counts. */
 typedef struct bench_tally {
@@ -65,6 +91,9 @@ size_t bench_item_of(const bench_plan *plan, size_t model, int kind,
 /* The generator seed of a version: mix64 hash of seed base, name, kind. */
 uint64_t bench_seed(unsigned seed_base, const char *name, int kind);
 
+/* Loads the model's mesh file. On failure *reason may be set. */
+phks_status bench_load(const bench_model *model, phks_mesh **mesh,
+                       const char **reason);
 /* Pool task: computes plan->items[index] (ctx is the plan). */
 void bench_compute(void *ctx, size_t index);
 
@@ -78,5 +107,17 @@ void bench_tally_add(bench_tally *sum, const bench_tally *t);
 void bench_print_tally(const bench_tally *t, const char *title);
 /* The same as a JSON object on stdout (docs/cli.md). */
 void bench_json_tally(const bench_tally *t);
+/* " 12.5 |" (markdown) or 12.5 (JSON): percent of part in whole, "-" or
+ * null when whole is 0. */
+void bench_print_percent(size_t part, size_t whole);
+void bench_json_percent(size_t part, size_t whole);
+
+/* The source part: retrieves every version's source from a database of
+ * the complete versions and matches the version to it, filling the items'
+ * source fields. Returns 0, or 1 when the database itself fails. */
+int bench_source_run(bench_plan *plan, unsigned workers);
+/* Its tables (markdown) or its JSON object, per seed and pooled. */
+void bench_source_print(const bench_plan *plan, const char *one_character);
+void bench_source_json(const bench_plan *plan, const char *one_character);
 
 #endif

@@ -1,8 +1,9 @@
 /*
  * cli_bench_item.c - one signature of `phks bench`: load the model, make
  * the version (complete, partial scan or incomplete), take the signature
- * from the cache or compute it, and for partial and incomplete queries
- * count the feature points next to the cut.
+ * from the cache or compute it, for partial and incomplete queries count
+ * the feature points next to the cut, and for the source part trace each
+ * feature point of a version back to the source mesh.
  */
 #include "cli_bench.h"
 #include "cli_assimp.h"
@@ -182,6 +183,23 @@ static void count_near_cut(const phks_mesh *src, const piece *pc,
     free(cut);
 }
 
+/* ---- where the features came from ---------------------------------------- */
+/* Per feature of sig (made from mesh, made from pc): the vertex of the
+ * source mesh it came from. The generator ran on the loaded mesh's own
+ * arrays, so source_vertex already numbers the source's vertices as its
+ * complete signature does. NULL when out of memory. */
+static uint32_t *trace_features(const piece *pc, const phks_mesh *mesh,
+                                const phks_signature *sig)
+{
+    size_t n = phks_signature_feature_count(sig);
+    const uint32_t *origin = phks_mesh_vertex_origin(mesh);
+    uint32_t *truth = malloc((n ? n : 1) * sizeof *truth);
+    for (size_t f = 0; truth && f < n; f++)
+        truth[f] = pc->source_vertex[origin[phks_signature_feature_vertex(sig,
+                                                                          f)]];
+    return truth;
+}
+
 /* ---- one item ------------------------------------------------------------ */
 static phks_status make_version(const phks_mesh *src, int kind, uint64_t seed,
                                 piece *pc, phks_mesh **mesh,
@@ -201,6 +219,19 @@ static phks_status make_version(const phks_mesh *src, int kind, uint64_t seed,
                             pc->triangle_count, mesh);
 }
 
+phks_status bench_load(const bench_model *model, phks_mesh **mesh,
+                       const char **reason)
+{
+    if (!cli_assimp_handles(model->row->path))
+        return phks_mesh_load(model->row->path, mesh);
+    static _Thread_local char err[1024];
+    phks_status st = cli_assimp_load(model->row->path, NULL, mesh, NULL, 0,
+                                     err, sizeof err);
+    if (st != PHKS_OK)
+        *reason = err;
+    return st;
+}
+
 static phks_status compute(bench_plan *p, bench_item *it, uint64_t seed,
                            const char **reason)
 {
@@ -208,15 +239,7 @@ static phks_status compute(bench_plan *p, bench_item *it, uint64_t seed,
     phks_mesh *src = NULL, *mesh = NULL;
     piece pc = {0};
     char *cached = NULL;
-    phks_status st;
-    if (cli_assimp_handles(model->row->path)) {
-        static _Thread_local char err[1024];
-        st = cli_assimp_load(model->row->path, NULL, &src, NULL, 0, err,
-                             sizeof err);
-        if (st != PHKS_OK)
-            *reason = err;
-    } else
-        st = phks_mesh_load(model->row->path, &src);
+    phks_status st = bench_load(model, &src, reason);
     if (st == PHKS_OK && it->kind == KIND_COMPLETE)
         mesh = src;
     else if (st == PHKS_OK)
@@ -231,6 +254,9 @@ static phks_status compute(bench_plan *p, bench_item *it, uint64_t seed,
         cache_store(cached, it->sig);
     if (st == PHKS_OK && model->is_query && it->kind != KIND_COMPLETE)
         count_near_cut(src, &pc, mesh, it);
+    if (st == PHKS_OK && p->source && it->kind != KIND_COMPLETE &&
+        !(it->truth = trace_features(&pc, mesh, it->sig)))
+        st = PHKS_ERROR_OUT_OF_MEMORY;
     free(cached);
     if (mesh != src)
         phks_mesh_free(mesh);

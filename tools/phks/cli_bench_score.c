@@ -15,7 +15,7 @@ size_t bench_item_of(const bench_plan *plan, size_t model, int kind,
     const bench_model *m = &plan->models[model];
     if (kind == KIND_COMPLETE)
         return m->first_item;
-    if (!m->is_query)
+    if (!m->all_versions)
         return m->first_item + seed - 1;
     return m->first_item + 1 + 2 * (size_t)(seed - 1) + (kind - KIND_PARTIAL);
 }
@@ -128,11 +128,9 @@ void bench_tally_add(bench_tally *sum, const bench_tally *t)
 }
 
 /* ---- tables ---------------------------------------------------------------- */
-static const struct {
-    const char *name;
-    unsigned kinds;  /* bit per kind */
-} rows[] = {{"complete", 1}, {"partial", 2}, {"incomplete", 4},
-            {"partial+incomplete", 6}, {"all", 7}};
+const bench_set bench_sets[BENCH_SET_COUNT] = {
+    {"complete", 1}, {"partial", 2}, {"incomplete", 4},
+    {"partial+incomplete", 6}, {"all", 7}};
 
 static size_t sum(const size_t *per_kind, unsigned kinds)
 {
@@ -142,7 +140,7 @@ static size_t sum(const size_t *per_kind, unsigned kinds)
     return s;
 }
 
-static void percent(size_t part, size_t whole)
+void bench_print_percent(size_t part, size_t whole)
 {
     if (whole)
         printf(" %.1f |", 100.0 * (double)part / (double)whole);
@@ -154,15 +152,15 @@ static void print_retrieval(const bench_tally *t)
 {
     printf("| queries | n | failed | Top-1 | Top-3 | Top-5 |\n"
            "|---|---:|---:|---:|---:|---:|\n");
-    for (size_t r = 0; r < sizeof rows / sizeof rows[0]; r++) {
-        size_t n = sum(t->queries, rows[r].kinds);
-        printf("| %s | %zu | %zu |", rows[r].name, n,
-               sum(t->failed, rows[r].kinds));
+    for (size_t r = 0; r < BENCH_SET_COUNT; r++) {
+        const bench_set *set = &bench_sets[r];
+        size_t n = sum(t->queries, set->kinds);
+        printf("| %s | %zu | %zu |", set->name, n, sum(t->failed, set->kinds));
         for (int k = 0; k < 3; k++) {
             size_t hits = 0;
             for (int kind = 0; kind < KIND_COUNT; kind++)
-                hits += rows[r].kinds >> kind & 1 ? t->top[kind][k] : 0;
-            percent(hits, n);
+                hits += set->kinds >> kind & 1 ? t->top[kind][k] : 0;
+            bench_print_percent(hits, n);
         }
         printf("\n");
     }
@@ -177,13 +175,14 @@ static void print_cut(const bench_tally *t)
            "vertices next to the cut, percent |\n"
            "|---|---:|---:|---:|---:|---:|\n", BENCH_CUT_RADIUS);
     for (size_t r = 1; r < 4; r++) {
-        size_t f = sum(t->features, rows[r].kinds);
-        size_t c = sum(t->near_cut, rows[r].kinds);
-        printf("| %s | %zu | %zu | %zu |", rows[r].name,
-               sum(t->cut_queries, rows[r].kinds), f, c);
-        percent(c, f);
-        percent(sum(t->vertices_near_cut, rows[r].kinds),
-                sum(t->vertices, rows[r].kinds));
+        const bench_set *set = &bench_sets[r];
+        size_t f = sum(t->features, set->kinds);
+        size_t c = sum(t->near_cut, set->kinds);
+        printf("| %s | %zu | %zu | %zu |", set->name,
+               sum(t->cut_queries, set->kinds), f, c);
+        bench_print_percent(c, f);
+        bench_print_percent(sum(t->vertices_near_cut, set->kinds),
+                            sum(t->vertices, set->kinds));
         printf("\n");
     }
 }
@@ -198,7 +197,7 @@ void bench_print_tally(const bench_tally *t, const char *title)
     print_cut(t);
 }
 
-static void json_percent(size_t part, size_t whole)
+void bench_json_percent(size_t part, size_t whole)
 {
     if (whole)
         cli_json_number(100.0 * (double)part / (double)whole);
@@ -212,32 +211,34 @@ void bench_json_tally(const bench_tally *t)
            "\"partial\": %zu, \"incomplete\": %zu, \"failed\": %zu},\n"
            "      \"retrieval\": [", sum(t->db_entries, 7), t->db_entries[0],
            t->db_entries[1], t->db_entries[2], sum(t->db_failed, 7));
-    for (size_t r = 0; r < sizeof rows / sizeof rows[0]; r++) {
-        size_t n = sum(t->queries, rows[r].kinds);
+    for (size_t r = 0; r < BENCH_SET_COUNT; r++) {
+        const bench_set *set = &bench_sets[r];
+        size_t n = sum(t->queries, set->kinds);
         printf("%s\n        {\"queries\": \"%s\", \"n\": %zu, \"failed\": %zu",
-               r ? "," : "", rows[r].name, n, sum(t->failed, rows[r].kinds));
+               r ? "," : "", set->name, n, sum(t->failed, set->kinds));
         static const char *const top[] = {"top1", "top3", "top5"};
         for (int k = 0; k < 3; k++) {
             size_t hits = 0;
             for (int kind = 0; kind < KIND_COUNT; kind++)
-                hits += rows[r].kinds >> kind & 1 ? t->top[kind][k] : 0;
+                hits += set->kinds >> kind & 1 ? t->top[kind][k] : 0;
             printf(", \"%s_hits\": %zu, \"%s\": ", top[k], hits, top[k]);
-            json_percent(hits, n);
+            bench_json_percent(hits, n);
         }
         putchar('}');
     }
     printf("\n      ],\n      \"cut_radius\": %g, \"cut\": [", BENCH_CUT_RADIUS);
     for (size_t r = 1; r < 4; r++) {
-        size_t f = sum(t->features, rows[r].kinds);
-        size_t c = sum(t->near_cut, rows[r].kinds);
+        const bench_set *set = &bench_sets[r];
+        size_t f = sum(t->features, set->kinds);
+        size_t c = sum(t->near_cut, set->kinds);
         printf("%s\n        {\"queries\": \"%s\", \"n\": %zu, "
                "\"features\": %zu, \"near_cut\": %zu, \"percent\": ",
-               r > 1 ? "," : "", rows[r].name,
-               sum(t->cut_queries, rows[r].kinds), f, c);
-        json_percent(c, f);
+               r > 1 ? "," : "", set->name, sum(t->cut_queries, set->kinds),
+               f, c);
+        bench_json_percent(c, f);
         fputs(", \"vertices_near_cut_percent\": ", stdout);
-        json_percent(sum(t->vertices_near_cut, rows[r].kinds),
-                     sum(t->vertices, rows[r].kinds));
+        bench_json_percent(sum(t->vertices_near_cut, set->kinds),
+                           sum(t->vertices, set->kinds));
         putchar('}');
     }
     fputs("\n      ]}", stdout);
