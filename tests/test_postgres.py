@@ -39,14 +39,15 @@ def check(cond, what):
 
 
 # More entries than phks_db_query's shortlist of 100 for the two-stage
-# query; the first 30 make the small table.
+# query; the first 30 make the small table (at most 100 rows).
 meshes, source = pgutil.test_meshes(shared, os.path.join(work, "meshes"),
-                                    120)
+                                    110)
 sigs = pgutil.signatures(phks, meshes, os.path.join(work, "sigs-" + source))
 entries, queries = sigs[:24], sigs[24:30] + sigs[:2]
 # One entry twice: a tie that only the id breaks.
 entries = entries + [entries[5]]
-many = entries + sigs[30:]
+# Each of the others twice, under two ids: ties the shortlist cuts through.
+many = entries + sigs[30:] + sigs[30:]
 print("%d signatures in %.1f s" % (len(sigs), time.time() - t0))
 
 
@@ -102,12 +103,7 @@ def sql_topk(q, k, prefix=""):
 
 
 def sql_two_stage(q, k, prefix=""):
-    """docs/postgres.md's form of phks_db_query on the table many."""
-    rows = pg.sql(prefix + "SELECT id, name, sig <~> q AS score FROM "
-                  "(SELECT id, name, sig, q FROM many, "
-                  "(SELECT '%s'::phks_signature AS q) AS query "
-                  "ORDER BY sig <#> q, id LIMIT greatest(%d, 100)) AS short "
-                  "ORDER BY score, id LIMIT %d;" % (pgutil.hexfile(q), k, k))
+    rows = pg.sql(prefix + pgutil.two_stage("many", pgutil.literal(q), k))
     return [(int(r[0]), r[1], float(r[2])) for r in rows]
 
 
