@@ -1534,8 +1534,8 @@ done:
 }
 
 /* Distances along the surface from vertex source: options as for
- * signature() (box and tau shape how pieces are joined), bar progress,
- * since the shortest paths take milliseconds. */
+ * signature() (box and tau decide which pieces are joined), bar progress,
+ * which the library does not report for them. */
 static PyObject *py_geodesic_distances(PyObject *module, PyObject *args,
                                        PyObject *kwargs)
 {
@@ -1645,8 +1645,8 @@ static PyObject *py_match(PyObject *module, PyObject *args)
     PyObject *items[1 + COLUMNS] = {PyFloat_FromDouble(score)};
     npy_intp dims[1] = {(npy_intp)got};
     int ok = items[0] != NULL;
-    for (int j = 0; j < COLUMNS; j++)
-        ok = (items[1 + j] = PyArray_SimpleNew(1, dims, types[j])) && ok;
+    for (int j = 0; ok && j < COLUMNS; j++)
+        ok = (items[1 + j] = PyArray_SimpleNew(1, dims, types[j])) != NULL;
     PyObject *result = ok ? PyStructSequence_New(&MatchType) : NULL;
     if (!result) {
         for (int j = 0; j < 1 + COLUMNS; j++)
