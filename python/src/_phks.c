@@ -2125,7 +2125,8 @@ static PyMethodDef Database_methods[] = {
     {"query", (PyCFunction)(void (*)(void))Database_query,
      METH_VARARGS | METH_KEYWORDS,
      "query(signature, k=10) -> [Hit, ...]: the k lowest scores, best "
-     "first."},
+     "first, ties to the lower id; with matching 'verified' among the "
+     "max(k, 100) entries of lowest score_nearest."},
     {"list", (PyCFunction)Database_list, METH_NOARGS,
      "list() -> [id, ...], ascending."},
     {"get", (PyCFunction)Database_get, METH_O,
