@@ -1,8 +1,9 @@
 #!/usr/bin/env python3
 """bench_pg.py BUILD_DIR [-n N] [--queries Q] [--skip-single|--skip-shards]
 
-Times a top-10 query (ORDER BY sig <~> q, id LIMIT 10) over N synthetic
-signatures (default 100000) on one throwaway server, and on three shard
+Times phks_db_query's top 10 in SQL (the two-stage query of
+docs/postgres.md: a shortlist of 100 by sig <#> q, re-ranked by sig <~> q)
+over N synthetic signatures (default 100000) on one throwaway server, and on three shard
 servers behind a postgres_fdw coordinator (docs/scale.md), all on this
 machine. Called by bench/bench_pg.sh; needs what tests/test_postgres.py
 needs (root, the server packages, the built extension).
@@ -10,7 +11,7 @@ needs (root, the server packages, the built extension).
 The synthetic signatures are valid blobs with the default options: 15
 features at the default 15 scales, vectors of a real signature (the
 tool's, of a generated mesh) moved by seeded noise, so that every score
-differs; they are loaded with COPY (FORMAT binary), through the type's
+differs, and that signature's distances between its feature points; they are loaded with COPY (FORMAT binary), through the type's
 receive function, which validates each one.
 """
 import argparse
@@ -48,14 +49,20 @@ pgutil.bumpy_sphere_off(mesh, 3)
 template = open(pgutil.signatures(phks, [mesh], tmp)[0], "rb").read()
 shutil.rmtree(tmp)
 
+# The blob's layout: docs/formats.md (its header grew with the format).
+FORMAT = struct.unpack_from("<H", template, 4)[0]
+H = 52 + 12 * (FORMAT >= 2) + 4 * (FORMAT >= 3) + 4 * (FORMAT >= 4)
 S = struct.unpack_from("<I", template, 48)[0]
-head = template[:64 + 8 * S]
-F = struct.unpack_from("<I", template, 64 + 8 * S)[0]
+head = template[:H + 8 * S]
+F = struct.unpack_from("<I", template, H + 8 * S)[0]
 rec = 36 + 8 * S
 base_vectors = []
 for f in range(F):
-    off = 64 + 8 * S + 4 + f * rec + 36
+    off = H + 8 * S + 4 + f * rec + 36
     base_vectors.append(struct.unpack_from("<%dd" % S, template, off))
+# The distances between the feature points (the verified matching's), the
+# template's: only the vectors move.
+geodesics = template[H + 8 * S + 4 + F * rec:-4]
 
 
 def synthetic(seed):
@@ -69,6 +76,7 @@ def synthetic(seed):
         scale = rng.uniform(0.5, 1.5)
         body += struct.pack("<%dd" % S, *[v * scale + rng.gauss(0, 0.3)
                                           for v in base_vectors[f]])
+    body += geodesics
     body += struct.pack("<I", zlib.crc32(bytes(body)) & 0xffffffff)
     return bytes(body)
 
@@ -97,15 +105,15 @@ def copy_binary(cluster, table, ids):
 TABLE = ("(id bigint NOT NULL, name text NOT NULL, sig phks_signature "
          "NOT NULL) WITH (toast_tuple_target = 8160)")
 queries = [synthetic(10 ** 9 + i).hex() for i in range(args.queries)]
-TOPK = "SELECT id, sig <~> '%s' FROM %s ORDER BY sig <~> '%s', id LIMIT 10;"
-SHARD_QUERY = "SELECT id, score FROM shard_topk('%s', 10);"
+SHARD_QUERY = "SELECT * FROM shard_topk('%s', 10);"
 
 
 def timed(cluster, table, pre="", shard_topk=False):
     """Median and best time of the queries, in one session after one
     warm-up query (connections to the shards, caches)."""
     script = "\\timing on\n" + pre + "".join(
-        (SHARD_QUERY % q if shard_topk else TOPK % (q, table, q)) +
+        (SHARD_QUERY % q if shard_topk else
+         pgutil.two_stage(table, "'%s'::phks_signature" % q, 10)) +
         "\\echo ==\n" for q in [queries[0]] + queries)
     out = subprocess.run(
         [os.path.join(bindir, "psql"), "-X", "-A", "-t", "-v",

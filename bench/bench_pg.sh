@@ -1,8 +1,9 @@
 #!/bin/sh
 # bench_pg.sh [BUILD_DIR] [-n N | --million] [--queries Q]
-# A top-10 query (ORDER BY sig <~> q, id LIMIT 10) over N synthetic
-# signatures (100000; --million: 1000000) on one throwaway PostgreSQL
-# server and on three shards behind a postgres_fdw coordinator, all on
+# phks_db_query's top 10 in SQL (a shortlist of 100 by sig <#> q,
+# re-ranked by sig <~> q: docs/postgres.md) over N synthetic signatures
+# (100000; --million: 1000000) on one throwaway PostgreSQL server and on
+# three shards behind a postgres_fdw coordinator, all on
 # this machine (docs/scale.md). Run as root after building (the extension
 # is copied into the server's folders, as tests/test_postgres.py does).
 set -eu

@@ -240,7 +240,7 @@ static void score_cache_free(void *arg)
 }
 
 static const phks_signature *cached_signature(FunctionCallInfo fcinfo,
-                                              bytea *blob)
+                                              bytea *blob, const char *name)
 {
     score_cache *cache = (score_cache *)fcinfo->flinfo->fn_extra;
     const char *data = VARDATA_ANY(blob);
@@ -262,7 +262,7 @@ static const phks_signature *cached_signature(FunctionCallInfo fcinfo,
     if (cache->blob)
         pfree(cache->blob);
     cache->blob = NULL;
-    phks_signature *sig = decode_or_error(data, size, "phks_score");
+    phks_signature *sig = decode_or_error(data, size, name);
     cache->blob = MemoryContextAlloc(fcinfo->flinfo->fn_mcxt, size ? size : 1);
     memcpy(cache->blob, data, size);
     cache->size = size;
@@ -270,9 +270,14 @@ static const phks_signature *cached_signature(FunctionCallInfo fcinfo,
     return sig;
 }
 
-/* score(first, second) with second's handle cached; the other argument
- * decoded here and freed before any error. */
-static Datum score_args(FunctionCallInfo fcinfo, int query_first)
+typedef phks_status (*score_fn)(const phks_signature *,
+                                const phks_signature *, double *);
+
+/* fn(first, second), or fn(second, first) with query_first, with second's
+ * handle cached; the other argument decoded here and freed before any
+ * error, which name names. */
+static Datum score_args(FunctionCallInfo fcinfo, int query_first,
+                        score_fn fn, const char *name)
 {
     bytea *a_blob = PG_GETARG_BYTEA_PP(0);
     bytea *b_blob = PG_GETARG_BYTEA_PP(1);
@@ -281,42 +286,57 @@ static Datum score_args(FunctionCallInfo fcinfo, int query_first)
     phks_signature *own = NULL;
     const phks_signature *q;
     if (fcinfo->flinfo)
-        q = cached_signature(fcinfo, b_blob);
+        q = cached_signature(fcinfo, b_blob, name);
     else
         q = own = decode_or_error(VARDATA_ANY(b_blob),
-                                  VARSIZE_ANY_EXHDR(b_blob), "phks_score");
+                                  VARSIZE_ANY_EXHDR(b_blob), name);
     phks_signature *e = NULL;
     phks_status st = phks_signature_decode(VARDATA_ANY(a_blob),
                                            VARSIZE_ANY_EXHDR(a_blob), &e);
     double score = 0.0;
     if (st == PHKS_OK)
-        st = query_first ? phks_score(q, e, &score)
-                         : phks_score(e, q, &score);
+        st = query_first ? fn(q, e, &score) : fn(e, q, &score);
     if (st != PHKS_OK) {
         char *msg = last_message(st);
         phks_signature_free(e);
         phks_signature_free(own);
-        pg_noreturn_error(st, "phks_score", msg);
+        pg_noreturn_error(st, name, msg);
     }
     phks_signature_free(e);
     phks_signature_free(own);
     PG_RETURN_FLOAT8(score);
 }
 
-/* phks_score(a, b): the library's phks_score(a, b). */
+/* phks_score(query, entry): the library's phks_score(query, entry). */
 PG_FUNCTION_INFO_V1(phks_pg_score);
 Datum phks_pg_score(PG_FUNCTION_ARGS)
 {
-    return score_args(fcinfo, 0);
+    return score_args(fcinfo, 0, phks_score, "phks_score");
 }
 
 /* entry <~> query: the library's phks_score(query, entry), the very number
- * phks_db_query reports (the score is symmetric up to the rounding of its
- * two sums, which are added in the other order when the arguments swap). */
+ * phks_db_query reports; the entry comes first so that the query, the
+ * constant of an ORDER BY, is the argument cached. */
 PG_FUNCTION_INFO_V1(phks_pg_distance);
 Datum phks_pg_distance(PG_FUNCTION_ARGS)
 {
-    return score_args(fcinfo, 1);
+    return score_args(fcinfo, 1, phks_score, "phks_score");
+}
+
+/* phks_score_nearest(a, b): the library's phks_score_nearest(a, b). */
+PG_FUNCTION_INFO_V1(phks_pg_score_nearest);
+Datum phks_pg_score_nearest(PG_FUNCTION_ARGS)
+{
+    return score_args(fcinfo, 0, phks_score_nearest, "phks_score_nearest");
+}
+
+/* entry <#> query: phks_score_nearest(query, entry), the number
+ * phks_db_query's first stage ranks by (the two sums are added in that
+ * order, so swapped arguments may differ in the last bit). */
+PG_FUNCTION_INFO_V1(phks_pg_nearest_distance);
+Datum phks_pg_nearest_distance(PG_FUNCTION_ARGS)
+{
+    return score_args(fcinfo, 1, phks_score_nearest, "phks_score_nearest");
 }
 
 /* ---------------------------------------------------------------------
@@ -403,6 +423,7 @@ Datum phks_pg_options(PG_FUNCTION_ARGS)
     json_number(&out, "boundary_margin", o.boundary_margin, 0);
     appendStringInfo(&out, ", \"hks_scaling\": %d", (int)o.hks_scaling);
     appendStringInfo(&out, ", \"quadrature\": %d", (int)o.quadrature);
+    appendStringInfo(&out, ", \"matching\": %d", (int)o.matching);
     appendStringInfoChar(&out, '}');
     /* json's representation is its text. */
     PG_RETURN_TEXT_P(cstring_to_text_with_len(out.data, out.len));

@@ -268,9 +268,26 @@ def hexfile(path):
         return f.read().hex()
 
 
-# The top k over a table partitioned into postgres_fdw shards with a LIMIT
-# on every shard, so that each sends only its own k best (docs/scale.md);
-# the tests and bench/bench_pg.py create it on the coordinator.
+def two_stage(table, q, k):
+    """phks_db_query's top k as SQL (docs/postgres.md): the best max(k, 100)
+    rows of table by <#> against q (a SQL expression), re-ranked by <~>,
+    ties by id. Rows of (id, name, score)."""
+    return ("SELECT id, name, sig <~> q AS score FROM "
+            "(SELECT id, name, sig, q FROM %s, (SELECT %s AS q) AS query "
+            "ORDER BY sig <#> q, id LIMIT greatest(%d, 100)) AS shortlist "
+            "ORDER BY score, id LIMIT %d;" % (table, q, k, k))
+
+
+def literal(path):
+    """A signature file as a SQL constant."""
+    return "'%s'::phks_signature" % hexfile(path)
+
+
+# phks_db_query's top k over a table partitioned into postgres_fdw shards
+# with a LIMIT on every shard, so that each sends only its own shortlist
+# (docs/scale.md): the global shortlist by <#> is among the shards' own,
+# and <~> re-ranks it. The tests and bench/bench_pg.py create it on the
+# coordinator.
 SHARD_TOPK = """
 CREATE FUNCTION shard_topk(q phks_signature, k int)
 RETURNS TABLE (id bigint, name text, score float8)
@@ -281,12 +298,16 @@ DECLARE
 BEGIN
   FOR part IN SELECT inhrelid::regclass FROM pg_inherits
               WHERE inhparent = 'shapes'::regclass LOOP
-    parts := parts || format('(SELECT id, name, sig <~> $1 AS score FROM %s '
-                             'ORDER BY sig <~> $1, id LIMIT $2)', part);
+    parts := parts || format('(SELECT id, name, sig, sig <#> $1 AS nearest '
+                             'FROM %s ORDER BY sig <#> $1, id '
+                             'LIMIT greatest($2, 100))', part);
   END LOOP;
   -- OFFSET 0 keeps the branches under a plain Append, which runs the
   -- shards at once with async_capable (a Merge Append would not).
-  RETURN QUERY EXECUTE 'SELECT * FROM (SELECT * FROM ('
+  RETURN QUERY EXECUTE 'SELECT id, name, sig <~> $1 AS score FROM '
+    || '(SELECT * FROM (SELECT * FROM ('
     || array_to_string(parts, ' UNION ALL ')
-    || ') AS u OFFSET 0) AS hits ORDER BY score, id LIMIT $2' USING q, k;
+    || ') AS u OFFSET 0) AS s ORDER BY nearest, id '
+    || 'LIMIT greatest($2, 100)) AS shortlist ORDER BY score, id LIMIT $2'
+    USING q, k;
 END $$;"""

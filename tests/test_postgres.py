@@ -2,9 +2,10 @@
 """test_postgres.py BUILD_ROOT PHKS_TOOL [SHARED_MESHES]
 
 The PostgreSQL extension (docs/postgres.md) on a throwaway cluster: the
-SQL top-k (ORDER BY sig <~> q, id LIMIT k) equals `phks db query --json`
-on the same entries (ids, names and scores exactly), in plain and in
-parallel plans; bad blobs and signatures made with other options give
+SQL top-k equals `phks db query --json` on the same entries (ids, names
+and scores exactly), in plain and in parallel plans: ORDER BY sig <~> q,
+id LIMIT k on a table of at most 100 rows, and the two-stage query (a
+shortlist by <#>, re-ranked by <~>) on a larger one; bad blobs and signatures made with other options give
 errors (naming the option), never a crash; text and binary I/O round trip;
 phks_signature_from_mesh equals the tool's signature byte for byte; the
 accessors agree with `phks signature --json`.
@@ -37,21 +38,33 @@ def check(cond, what):
         print("FAIL: " + what)
 
 
-meshes, source = pgutil.test_meshes(shared, os.path.join(work, "meshes"), 30)
+# More entries than phks_db_query's shortlist of 100 for the two-stage
+# query; the first 30 make the small table (at most 100 rows).
+meshes, source = pgutil.test_meshes(shared, os.path.join(work, "meshes"),
+                                    110)
 sigs = pgutil.signatures(phks, meshes, os.path.join(work, "sigs-" + source))
-entries, queries = sigs[:24], sigs[24:] + sigs[:2]
+entries, queries = sigs[:24], sigs[24:30] + sigs[:2]
 # One entry twice: a tie that only the id breaks.
 entries = entries + [entries[5]]
+# Each of the others twice, under two ids: ties the shortlist cuts through.
+many = entries + sigs[30:] + sigs[30:]
 print("%d signatures in %.1f s" % (len(sigs), time.time() - t0))
 
-db = os.path.join(work, "t.db")
-for f in (db, db + "-wal", db + "-shm"):
-    if os.path.exists(f):
-        os.remove(f)
-r = subprocess.run([phks, "db", "add", db, "-j", "1", "--allow-duplicates"] +
-                   entries, capture_output=True, text=True)
-if r.returncode != 0:
-    raise SystemExit("phks db add: " + r.stderr)
+
+def tool_db(path, files):
+    for f in (path, path + "-wal", path + "-shm"):
+        if os.path.exists(f):
+            os.remove(f)
+    r = subprocess.run([phks, "db", "add", path, "-j", "1",
+                        "--allow-duplicates"] + files,
+                       capture_output=True, text=True)
+    if r.returncode != 0:
+        raise SystemExit("phks db add: " + r.stderr)
+
+
+db, db_many = os.path.join(work, "t.db"), os.path.join(work, "many.db")
+tool_db(db, entries)
+tool_db(db_many, many)
 
 pg = pgutil.Cluster(bindir, "single")
 print("cluster on port %d (%.1f s)" % (pg.port, time.time() - t0))
@@ -59,11 +72,13 @@ pg.sql("CREATE EXTENSION phks;")
 version = pg.sql("SELECT extversion FROM pg_extension WHERE extname='phks';")
 print("extension version", version[0][0])
 
-values = ",\n".join("(%d, '%s', '%s')" % (i + 1, e, pgutil.hexfile(e))
-                    for i, e in enumerate(entries))
-pg.sql("CREATE TABLE shapes (id bigint PRIMARY KEY, name text NOT NULL, "
-       "sig phks_signature NOT NULL) WITH (toast_tuple_target = 8160);\n"
-       "INSERT INTO shapes VALUES %s;\nANALYZE shapes;" % values)
+for table, files in (("shapes", entries), ("many", many)):
+    values = ",\n".join("(%d, '%s', '%s')" % (i + 1, e, pgutil.hexfile(e))
+                        for i, e in enumerate(files))
+    pg.sql("CREATE TABLE %s (id bigint PRIMARY KEY, name text NOT NULL, "
+           "sig phks_signature NOT NULL) WITH (toast_tuple_target = 8160);\n"
+           "INSERT INTO %s VALUES %s;\nANALYZE %s;"
+           % (table, table, values, table))
 
 # Text output is the blob's hex; the stored bytes are the tool's.
 rows = pg.sql("SELECT id, sig FROM shapes ORDER BY id;")
@@ -80,15 +95,21 @@ PARALLEL = ("SET max_parallel_workers_per_gather = 2; "
             "SET parallel_leader_participation = off;\n")
 
 
-def sql_topk(q, k, prefix=""):
-    rows = pg.sql(prefix + "SELECT id, name, sig <~> q FROM shapes, "
+def sql_topk(q, k, prefix="", table="shapes"):
+    rows = pg.sql(prefix + "SELECT id, name, sig <~> q FROM %s, "
                   "(SELECT '%s'::phks_signature AS q) AS query "
-                  "ORDER BY sig <~> q, id LIMIT %d;" % (pgutil.hexfile(q), k))
+                  "ORDER BY sig <~> q, id LIMIT %d;"
+                  % (table, pgutil.hexfile(q), k))
     return [(int(r[0]), r[1], float(r[2])) for r in rows]
 
 
-def tool_topk(q, k):
-    r = subprocess.run([phks, "db", "query", db, q, "-k", str(k), "--json"],
+def sql_two_stage(q, k, prefix=""):
+    rows = pg.sql(prefix + pgutil.two_stage("many", pgutil.literal(q), k))
+    return [(int(r[0]), r[1], float(r[2])) for r in rows]
+
+
+def tool_topk(q, k, path=db):
+    r = subprocess.run([phks, "db", "query", path, q, "-k", str(k), "--json"],
                        capture_output=True, text=True)
     if r.returncode != 0:
         raise SystemExit("phks db query: " + r.stderr)
@@ -109,13 +130,61 @@ plan = pg.sql(PARALLEL + "EXPLAIN SELECT id FROM shapes ORDER BY sig <~> "
               "'%s', id LIMIT 10;" % pgutil.hexfile(queries[0]))
 check(any("Gather" in r[0] for r in plan), "a parallel plan is chosen: %s"
       % plan)
-# The function is the operator, and symmetric.
-# entry <~> query is phks_score(query, entry), bit for bit; swapped
-# arguments agree to rounding.
+
+# More rows than the shortlist: the two-stage form is phks_db_query, and
+# the one-stage one is not (it ranks rows the shortlist leaves out).
+one_stage_differs = False
+for q in queries + [entries[5]]:
+    for k in (1, 10, 100, len(many)):
+        want = tool_topk(q, k, db_many)
+        got = sql_two_stage(q, k)
+        check(got == want, "two-stage top-%d of %s: SQL %s\n  tool %s" % (
+            k, os.path.basename(q), got[:4], want[:4]))
+        if k == 10:
+            one_stage_differs |= sql_topk(q, k, table="many") != want
+    got = sql_two_stage(q, 10, PARALLEL)
+    check(got == tool_topk(q, 10, db_many),
+          "two-stage top-10 of %s in a parallel plan" % os.path.basename(q))
+# (Measured on the PSB meshes; generated ones may all be alike enough.)
+if source == "psb":
+    check(one_stage_differs, "the shortlist decides some top 10 of many")
+print("two-stage top-k on %d rows checked (%.1f s)"
+      % (len(many), time.time() - t0))
+
+# entry <~> query is phks_score(query, entry), and entry <#> query
+# phks_score_nearest(query, entry), bit for bit.
 rows = pg.sql("SELECT bool_and(phks_score(a.sig, b.sig) = b.sig <~> a.sig "
-              "AND abs((a.sig <~> b.sig) - (b.sig <~> a.sig)) <= "
-              "1e-12 * (1 + (a.sig <~> b.sig))) FROM shapes a, shapes b;")
-check(rows == [["t"]], "phks_score(q, e) equals e <~> q")
+              "AND phks_score_nearest(a.sig, b.sig) = b.sig <#> a.sig) "
+              "FROM shapes a, shapes b;")
+check(rows == [["t"]], "phks_score(q, e) equals e <~> q, "
+      "phks_score_nearest(q, e) e <#> q")
+# The verified score is 0 for a signature against itself and asymmetric;
+# the nearest one symmetric but for the order of its two sums.
+rows = pg.sql("SELECT bool_and(a.sig <~> a.sig <= 1e-12), "
+              "bool_or(abs((a.sig <~> b.sig) - (b.sig <~> a.sig)) > 1e-6), "
+              "bool_and(abs((a.sig <#> b.sig) - (b.sig <#> a.sig)) <= "
+              "1e-12 * (1 + (a.sig <#> b.sig))) FROM shapes a, shapes b;")
+check(rows == [["t", "t", "t"]], "self 0, <~> asymmetric, <#> symmetric: %s"
+      % rows)
+
+
+def vectors(id_):
+    text = pg.sql("SELECT phks_vectors(sig)::text FROM shapes WHERE id = %d;"
+                  % id_)[0][0]
+    return json.loads(text.replace("{", "[").replace("}", "]"))
+
+
+def nearest_sum(a, b):
+    return sum(min(sum(abs(x - y) for x, y in zip(u, v)) for v in b)
+               for u in a)
+
+
+# <#> is the paper's formula on phks_vectors.
+a, b = vectors(1), vectors(2)
+got = float(pg.sql("SELECT e.sig <#> q.sig FROM shapes e, shapes q "
+                   "WHERE e.id = 2 AND q.id = 1;")[0][0])
+want = nearest_sum(a, b) + nearest_sum(b, a)
+check(abs(got - want) <= 1e-12 * want, "<#> %r against %r" % (got, want))
 print("top-k checked (%.1f s)" % (time.time() - t0))
 
 # Bad blobs: errors, never a crash.
@@ -192,7 +261,9 @@ check(all(opts[k] == tool_opts[k] for k in
       "phks_options: %s against %s" % (opts, tool_opts))
 names = {"operator_kind": ("operator", ["literal", "random-walk"]),
          "box": ("box", ["principal", "axis-aligned"]),
-         "hks_scaling": ("hks_scaling", ["none", "mean", "local-area"])}
+         "hks_scaling": ("hks_scaling", ["none", "mean", "local-area"]),
+         "quadrature": ("quadrature", ["vertices", "triangles"]),
+         "matching": ("matching", ["nearest", "verified"])}
 check(all(names[k][1][opts[k]] == tool_opts[names[k][0]] for k in names),
       "phks_options enumerations: %s" % opts)
 

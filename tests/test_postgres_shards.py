@@ -4,10 +4,10 @@
 Scale-out (docs/scale.md): three servers hold the shards, a coordinator
 holds a table hash-partitioned on id whose partitions are postgres_fdw
 foreign tables on the shards, with phks listed in the foreign server's
-`extensions` so that <~> is computed on the shards. The sharded top-k
-(ORDER BY sig <~> q, id LIMIT k) equals the single server's (a plain
-table on the coordinator), ids and scores, and the remote SQL carries the
-ORDER BY with <~>.
+`extensions` so that <#> is computed on the shards. The sharded top-k
+(the two-stage query: a shortlist by <#>, re-ranked by <~>) equals the
+single server's (a plain table on the coordinator), ids and scores, and
+the remote SQL carries the ORDER BY with <#>.
 """
 import os
 import sys
@@ -87,9 +87,7 @@ check(sum(counts) == COPIES * len(entries) and all(c > 0 for c in counts),
 
 
 def topk(table, q, k):
-    rows = coord.sql("SELECT id, name, sig <~> '%s' FROM %s ORDER BY "
-                     "sig <~> '%s', id LIMIT %d;" %
-                     (pgutil.hexfile(q), table, pgutil.hexfile(q), k))
+    rows = coord.sql(pgutil.two_stage(table, pgutil.literal(q), k))
     return [(int(r[0]), r[1], float(r[2])) for r in rows]
 
 
@@ -102,20 +100,20 @@ for q in queries:
               "top-%d of %s: sharded %s\n  single %s" %
               (k, os.path.basename(q), sharded[:3], single[:3]))
 
-plan = coord.sql("EXPLAIN (VERBOSE, COSTS OFF) SELECT id FROM shapes ORDER "
-                 "BY sig <~> '%s', id LIMIT 10;" % pgutil.hexfile(queries[0]))
+plan = coord.sql("EXPLAIN (VERBOSE, COSTS OFF) " +
+                 pgutil.two_stage("shapes", pgutil.literal(queries[0]), 10))
 remote = [r[0] for r in plan if "Remote SQL" in r[0]]
 print("\n".join(r[0] for r in plan if "Remote SQL" not in r[0]
                 and "Output" not in r[0] and "Key" not in r[0]))
 print(remote[0][:100] + " ... " + remote[0][-60:] if remote else
       "no remote SQL")
-check(len(remote) == SHARDS and all("ORDER BY (sig OPERATOR(public.<~>)"
+check(len(remote) == SHARDS and all("ORDER BY (sig OPERATOR(public.<#>)"
                                     in r for r in remote),
       "the scoring and the ORDER BY run on the shards: %s" %
       [r[:200] for r in remote])
 
 # The same top k with a LIMIT on every shard (docs/scale.md): each shard
-# sends only its own k best.
+# sends only its own shortlist.
 coord.sql(pgutil.SHARD_TOPK)
 for q in queries[:3]:
     for k in (1, 10):
@@ -128,10 +126,10 @@ for q in queries[:3]:
 coord.sql("".join("ALTER SERVER shard%d OPTIONS (ADD async_capable 'true');"
                   % i for i in range(SHARDS)))
 qh = pgutil.hexfile(queries[0])
-branch = ("(SELECT id, sig <~> '%s' AS score FROM shapes_%%d ORDER BY "
-          "sig <~> '%s', id LIMIT 10)" % (qh, qh))
+branch = ("(SELECT id, sig <#> '%s' AS nearest FROM shapes_%%d ORDER BY "
+          "sig <#> '%s', id LIMIT 100)" % (qh, qh))
 plan = coord.sql("EXPLAIN SELECT * FROM (SELECT * FROM (%s) AS u OFFSET 0) "
-                 "AS hits ORDER BY score, id LIMIT 10;" %
+                 "AS hits ORDER BY nearest, id LIMIT 100;" %
                  " UNION ALL ".join(branch % i for i in range(SHARDS)))
 check(sum("Async Foreign Scan" in r[0] for r in plan) == SHARDS,
       "async foreign scans: %s" % [r[0][:60] for r in plan])
@@ -141,12 +139,12 @@ for q in queries[:2]:
           topk("shapes_single", q, 10), "async shard_topk of %s" %
           os.path.basename(q))
 plan = coord.sql("EXPLAIN (VERBOSE, COSTS OFF) SELECT id FROM shapes_0 "
-                 "ORDER BY sig <~> '%s', id LIMIT 10;" %
+                 "ORDER BY sig <#> '%s', id LIMIT 100;" %
                  pgutil.hexfile(queries[0]))
 # (With these few rows the planner may keep the LIMIT on the coordinator
 # over the shard's sorted stream; on larger shards it sends it too.)
-check(any("Remote SQL" in r[0] and "ORDER BY (sig OPERATOR(public.<~>)" in
-          r[0] for r in plan), "a shard sorts by <~> itself: %s" %
+check(any("Remote SQL" in r[0] and "ORDER BY (sig OPERATOR(public.<#>)" in
+          r[0] for r in plan), "a shard sorts by <#> itself: %s" %
       [r[0][:80] + " ... " + r[0][-40:] for r in plan])
 
 # A signature made with other options: the shard's error, naming it.

@@ -6,7 +6,7 @@ include/phks.h the manual of every call underneath.
     mesh = phks.load("bunny.ply")                  # or phks.Mesh(V, F)
     sig = phks.signature(mesh)                     # options as keywords
     sig.vertices, sig.positions, sig.vectors       # numpy arrays
-    phks.score(sig, other)                         # 0 for identical
+    phks.score(sig, other)                         # 0 for itself
     with phks.Database("shapes.db") as db:
         db.add("bunny", sig, label="animal")
         db.query(sig, k=5)                         # [Hit(id, name, ...)]
@@ -36,12 +36,14 @@ from ._phks import (  # noqa: E402
     Status,
     decode,
     default_options,
+    geodesic_distances,
     library_version,
     load,
     load_memory,
     match,
     persistent_maxima,
     score,
+    score_nearest,
     signature,
     spectrum,
     status_string,
@@ -52,6 +54,7 @@ __version__ = library_version
 __all__ = [
     "MAX_SCALES", "Database", "Entry", "Error", "Hit", "Match", "Maxima",
     "Mesh", "Signature", "Spectrum", "Stage", "Status", "decode",
-    "default_options", "library_version", "load", "load_memory", "match",
-    "persistent_maxima", "score", "signature", "spectrum", "status_string",
+    "default_options", "geodesic_distances", "library_version", "load",
+    "load_memory", "match", "persistent_maxima", "score", "score_nearest",
+    "signature", "spectrum", "status_string",
 ]

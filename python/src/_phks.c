@@ -56,6 +56,7 @@ static const char *const scaling_names[] = {"none", "mean", "local_area",
                                             NULL};
 static const char *const quadrature_names[] = {"vertices", "triangles",
                                                NULL};
+static const char *const matching_names[] = {"nearest", "verified", NULL};
 static const char *const format_names[] = {"auto", "off", "obj", "ply", "stl",
                                            NULL};
 
@@ -264,6 +265,7 @@ static const option_field option_fields[] = {
     FIELD(quadrature, FIELD_ENUM, quadrature_names),
     FIELD(simplify_above, FIELD_U32, NULL),
     FIELD(simplify_target, FIELD_U32, NULL),
+    FIELD(matching, FIELD_ENUM, matching_names),
 };
 #undef FIELD
 #define OPTION_FIELD_COUNT (sizeof option_fields / sizeof option_fields[0])
@@ -1531,17 +1533,72 @@ done:
     return result;
 }
 
-static PyObject *py_score(PyObject *module, PyObject *args)
+/* Distances along the surface from vertex source: options as for
+ * signature() (box and tau decide which pieces are joined), bar progress,
+ * which the library does not report for them. */
+static PyObject *py_geodesic_distances(PyObject *module, PyObject *args,
+                                       PyObject *kwargs)
+{
+    MeshObject *mesh;
+    PyObject *source_obj;
+    if (!PyArg_ParseTuple(args, "O!O:geodesic_distances", &MeshType, &mesh,
+                          &source_obj))
+        return NULL;
+    uint32_t source;
+    if (parse_u32(source_obj, "source", &source) < 0)
+        return NULL;
+    phks_options o;
+    PyObject *progress;
+    if (parse_options(kwargs, &o, &progress) < 0)
+        return NULL;
+    if (progress) {
+        Py_DECREF(progress);
+        PyErr_SetString(PyExc_TypeError,
+                        "geodesic_distances takes no progress");
+        return NULL;
+    }
+    npy_intp dims[1] = {(npy_intp)phks_mesh_vertex_count(mesh->mesh)};
+    PyObject *out = PyArray_SimpleNew(1, dims, NPY_DOUBLE);
+    if (!out)
+        return NULL;
+    double *d = PyArray_DATA((PyArrayObject *)out);
+    phks_status st;
+    Py_BEGIN_ALLOW_THREADS
+    st = phks_mesh_geodesic_distances(mesh->mesh, &o, source, d);
+    Py_END_ALLOW_THREADS
+    if (st != PHKS_OK) {
+        Py_DECREF(out);
+        return raise_status(st);
+    }
+    return out;
+}
+
+typedef phks_status (*score_fn)(const phks_signature *,
+                                const phks_signature *, double *);
+
+/* fn(a, b) of the two Signature arguments; format is PyArg's, ending in
+ * the Python name its messages give. */
+static PyObject *score_pair(PyObject *args, const char *format, score_fn fn)
 {
     const phks_signature *a, *b;
-    if (!PyArg_ParseTuple(args, "O&O&:score", signature_arg, &a,
-                          signature_arg, &b))
+    if (!PyArg_ParseTuple(args, format, signature_arg, &a, signature_arg,
+                          &b))
         return NULL;
     double score;
-    phks_status st = phks_score(a, b, &score);
+    phks_status st = fn(a, b, &score);
     if (st != PHKS_OK)
         return raise_status(st);
     return PyFloat_FromDouble(score);
+}
+
+static PyObject *py_score(PyObject *module, PyObject *args)
+{
+    return score_pair(args, "O&O&:score", phks_score);
+}
+
+static PyObject *py_score_nearest(PyObject *module, PyObject *args)
+{
+    return score_pair(args, "O&O&:score_nearest", phks_score_nearest);
 }
 
 static PyStructSequence_Field match_fields[] = {
@@ -1549,14 +1606,17 @@ static PyStructSequence_Field match_fields[] = {
     {"feature_a", "(c,) uint32: index of a feature of a"},
     {"feature_b", "(c,) uint32: index of a feature of b"},
     {"distance", "(c,) float64: L1 distance of their vectors"},
-    {"from_a", "(c,) bool: True where feature_b is nearest to feature_a, "
-               "False where feature_a is nearest to feature_b"},
+    {"from_a", "(c,) bool: True for the rows of a's features, False for "
+               "those of b's (feature_a nearest to feature_b)"},
+    {"verified", "(c,) bool: True where the pair is one of the verified "
+                 "set (matching 'verified'; all False with 'nearest')"},
     {NULL, NULL}};
 static PyStructSequence_Desc match_desc = {
     "phks.Match",
-    "The score and its minimising pairs: one per feature of a, then one "
-    "per feature of b.",
-    match_fields, 5};
+    "The score and its pairs: one per feature of a (its verified partner, "
+    "or its nearest feature of b), then one per feature of b (its nearest "
+    "feature of a).",
+    match_fields, 6};
 
 static PyObject *py_match(PyObject *module, PyObject *args)
 {
@@ -1578,40 +1638,36 @@ static PyObject *py_match(PyObject *module, PyObject *args)
         PyMem_Free(c);
         return raise_status(st);
     }
+    /* score, then one array per column of the correspondences. */
+    enum { COLUMNS = 5 };
+    static const int types[COLUMNS] = {NPY_UINT32, NPY_UINT32, NPY_DOUBLE,
+                                       NPY_BOOL, NPY_BOOL};
+    PyObject *items[1 + COLUMNS] = {PyFloat_FromDouble(score)};
     npy_intp dims[1] = {(npy_intp)got};
-    PyObject *fa = PyArray_SimpleNew(1, dims, NPY_UINT32);
-    PyObject *fb = PyArray_SimpleNew(1, dims, NPY_UINT32);
-    PyObject *dist = PyArray_SimpleNew(1, dims, NPY_DOUBLE);
-    PyObject *from_a = PyArray_SimpleNew(1, dims, NPY_BOOL);
-    PyObject *score_obj = PyFloat_FromDouble(score);
-    PyObject *result = NULL;
-    if (fa && fb && dist && from_a && score_obj) {
-        for (size_t i = 0; i < got; i++) {
-            ((uint32_t *)PyArray_DATA((PyArrayObject *)fa))[i] =
-                c[i].feature_a;
-            ((uint32_t *)PyArray_DATA((PyArrayObject *)fb))[i] =
-                c[i].feature_b;
-            ((double *)PyArray_DATA((PyArrayObject *)dist))[i] =
-                c[i].distance;
-            ((npy_bool *)PyArray_DATA((PyArrayObject *)from_a))[i] =
-                c[i].from_a != 0;
-        }
-        result = PyStructSequence_New(&MatchType);
-    }
-    PyMem_Free(c);
+    int ok = items[0] != NULL;
+    for (int j = 0; ok && j < COLUMNS; j++)
+        ok = (items[1 + j] = PyArray_SimpleNew(1, dims, types[j])) != NULL;
+    PyObject *result = ok ? PyStructSequence_New(&MatchType) : NULL;
     if (!result) {
-        Py_XDECREF(fa);
-        Py_XDECREF(fb);
-        Py_XDECREF(dist);
-        Py_XDECREF(from_a);
-        Py_XDECREF(score_obj);
+        for (int j = 0; j < 1 + COLUMNS; j++)
+            Py_XDECREF(items[j]);
+        PyMem_Free(c);
         return NULL;
     }
-    PyStructSequence_SET_ITEM(result, 0, score_obj);
-    PyStructSequence_SET_ITEM(result, 1, fa);
-    PyStructSequence_SET_ITEM(result, 2, fb);
-    PyStructSequence_SET_ITEM(result, 3, dist);
-    PyStructSequence_SET_ITEM(result, 4, from_a);
+    void *col[COLUMNS];
+    for (int j = 0; j < COLUMNS; j++)
+        col[j] = PyArray_DATA((PyArrayObject *)items[1 + j]);
+    for (size_t i = 0; i < got; i++) {
+        ((uint32_t *)col[0])[i] = c[i].feature_a;
+        ((uint32_t *)col[1])[i] = c[i].feature_b;
+        ((double *)col[2])[i] = c[i].distance;
+        ((npy_bool *)col[3])[i] = c[i].from_a != 0;
+        ((npy_bool *)col[4])[i] = c[i].verified != 0;
+    }
+    PyMem_Free(c);
+    /* SET_ITEM steals: the items now belong to result. */
+    for (int j = 0; j < 1 + COLUMNS; j++)
+        PyStructSequence_SET_ITEM(result, j, items[j]);
     return result;
 }
 
@@ -2069,7 +2125,8 @@ static PyMethodDef Database_methods[] = {
     {"query", (PyCFunction)(void (*)(void))Database_query,
      METH_VARARGS | METH_KEYWORDS,
      "query(signature, k=10) -> [Hit, ...]: the k lowest scores, best "
-     "first."},
+     "first, ties to the lower id; with matching 'verified' among the "
+     "max(k, 100) entries of lowest score_nearest."},
     {"list", (PyCFunction)Database_list, METH_NOARGS,
      "list() -> [id, ...], ascending."},
     {"get", (PyCFunction)Database_get, METH_O,
@@ -2151,10 +2208,20 @@ static PyMethodDef module_methods[] = {
      METH_VARARGS | METH_KEYWORDS,
      "persistent_maxima(mesh, f, max_count=15, threshold=0.0) -> Maxima: "
      "region merging of the triangles for the vertex function f."},
+    {"geodesic_distances", (PyCFunction)(void (*)(void))py_geodesic_distances,
+     METH_VARARGS | METH_KEYWORDS,
+     "geodesic_distances(mesh, source, **options) -> (vertex_count,) "
+     "float64: distances along the mesh's edges from vertex source, in "
+     "input units; inf where a piece stays out of reach."},
     {"score", py_score, METH_VARARGS,
-     "score(a, b) -> float: symmetric sum of nearest L1 distances."},
+     "score(query, entry) -> float: lower is more similar; with matching "
+     "'verified' (the default) asymmetric, in [0, 1]."},
+    {"score_nearest", py_score_nearest, METH_VARARGS,
+     "score_nearest(a, b) -> float: the paper's symmetric sum of nearest L1 "
+     "distances, whatever the matching (a query's fast first stage)."},
     {"match", py_match, METH_VARARGS,
-     "match(a, b) -> Match(score, feature_a, feature_b, distance, from_a)."},
+     "match(a, b) -> Match(score, feature_a, feature_b, distance, from_a, "
+     "verified)."},
     {"default_options", py_default_options, METH_NOARGS,
      "default_options() -> dict: the library's defaults as keyword "
      "arguments."},

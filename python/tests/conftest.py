@@ -30,6 +30,17 @@ def other_signature():
     return phks.signature(phks.Mesh(*creature(3, seed=1)))
 
 
+@pytest.fixture(scope="session")
+def creature_nearest(creature_mesh):
+    """The paper's matching: the symmetric nearest-L1 score."""
+    return phks.signature(creature_mesh, matching="nearest")
+
+
+@pytest.fixture(scope="session")
+def other_nearest():
+    return phks.signature(phks.Mesh(*creature(3, seed=1)), matching="nearest")
+
+
 @pytest.fixture
 def shared_meshes():
     """The shared real meshes (PHKS_SHARED_MESHES), or skip."""

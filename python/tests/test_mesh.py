@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import phks
-from shapes import icosphere, with_unused, write_obj, write_off
+from shapes import grid, icosphere, with_unused, write_obj, write_off
 
 
 def test_unused_vertices_are_dropped_and_mapped_back():
@@ -146,3 +146,48 @@ def test_argument_errors_are_python_errors():
         phks.Mesh(v.astype(complex), f)
     with pytest.raises(ValueError):
         phks.load_memory(b"OFF", format="vrml")
+
+
+def test_geodesic_distances_on_a_grid_follow_its_edges():
+    # Cells of side h with one diagonal each, along +x+y: the shortest edge
+    # path from the corner to column i, row j takes min(i, j) diagonals
+    # and |i - j| straight steps.
+    n = 9
+    h = 1 / (n - 1)
+    mesh = phks.Mesh(*grid(n))
+    d = phks.geodesic_distances(mesh, 0)
+    assert d.shape == (n * n,) and d.dtype == np.float64
+    i, j = np.meshgrid(np.arange(n), np.arange(n))
+    path = h * (np.sqrt(2) * np.minimum(i, j) + np.abs(i - j))
+    np.testing.assert_allclose(d, path.ravel(), rtol=1e-12, atol=1e-15)
+    euclid = np.linalg.norm(mesh.vertices - mesh.vertices[0], axis=1)
+    assert (d >= euclid - 1e-12).all()
+    # Along the edge row and the diagonal, the path is the straight line.
+    np.testing.assert_allclose(d[:n], euclid[:n], rtol=1e-12)
+    diagonal = np.arange(n) * (n + 1)
+    np.testing.assert_allclose(d[diagonal], euclid[diagonal], rtol=1e-12)
+    # A distance is one whichever end is the source.
+    far = n * n - 1
+    assert phks.geodesic_distances(mesh, far)[0] == pytest.approx(d[far])
+
+
+def test_geodesic_distances_of_pieces_out_of_reach_are_infinite():
+    v, f = grid(5)
+    far = v + [0, 0, 10]
+    mesh = phks.Mesh(np.vstack([v, far]), np.vstack([f, f + len(v)]))
+    d = phks.geodesic_distances(mesh, 0, box="axis_aligned")
+    assert np.isfinite(d[:len(v)]).all()
+    assert np.isinf(d[len(v):]).all()
+
+
+def test_geodesic_distances_errors():
+    mesh = phks.Mesh(*grid(3))
+    with pytest.raises(phks.Error) as e:
+        phks.geodesic_distances(mesh, 9)
+    assert e.value.status == phks.Status.INVALID_ARGUMENT
+    with pytest.raises(ValueError):
+        phks.geodesic_distances(mesh, -1)
+    with pytest.raises(TypeError):
+        phks.geodesic_distances(mesh, 0, colour="red")
+    with pytest.raises(TypeError):
+        phks.geodesic_distances(mesh, 0, progress=print)

@@ -146,8 +146,8 @@ def l1_nearest(a, b):
     return d.argmin(axis=1), d.min(axis=1)
 
 
-def test_score_and_match(creature_signature, other_signature):
-    a, b = creature_signature, other_signature
+def test_nearest_score_and_match(creature_nearest, other_nearest):
+    a, b = creature_nearest, other_nearest
     assert phks.score(a, a) == 0
     s = phks.score(a, b)
     # Symmetric up to the order of the sum (the last bit).
@@ -167,8 +167,86 @@ def test_score_and_match(creature_signature, other_signature):
     np.testing.assert_array_equal(m.feature_a[na:], ib)
     np.testing.assert_allclose(m.distance, np.concatenate([da, db]),
                                rtol=1e-12)
-    score, fa, fb, dist, from_a = m  # a named tuple
+    assert not m.verified.any()
+    score, fa, fb, dist, from_a, verified = m  # a named tuple
     assert score == s
+
+
+def test_score_nearest_is_the_papers_formula(creature_signature,
+                                             other_signature):
+    a, b = creature_signature, other_signature
+    s = phks.score_nearest(a, b)
+    expect = (l1_nearest(a.vectors, b.vectors)[1].sum()
+              + l1_nearest(b.vectors, a.vectors)[1].sum())
+    assert s == pytest.approx(expect, rel=1e-12)
+    assert phks.score_nearest(b, a) == pytest.approx(s, rel=1e-14)
+    assert phks.score_nearest(a, a) == 0
+
+
+def test_nearest_matching_scores_as_score_nearest(creature_nearest,
+                                                  other_nearest,
+                                                  creature_signature):
+    a, b = creature_nearest, other_nearest
+    assert phks.score(a, b) == phks.score_nearest(a, b)
+    assert phks.score(b, a) == phks.score_nearest(b, a)
+    # The matching changes the scoring, not the feature vectors.
+    np.testing.assert_array_equal(a.vectors, creature_signature.vectors)
+
+
+def test_matching_option_round_trips(creature_mesh, creature_nearest,
+                                     creature_signature):
+    assert phks.default_options()["matching"] == "verified"
+    assert creature_signature.options["matching"] == "verified"
+    assert creature_nearest.options["matching"] == "nearest"
+    assert_same_signature(
+        phks.signature(creature_mesh, **creature_nearest.options),
+        creature_nearest)
+    assert_same_signature(phks.signature(creature_mesh, matching=0),
+                          creature_nearest)
+    assert phks.decode(creature_nearest.encode()).options == \
+        creature_nearest.options
+    with pytest.raises(ValueError):
+        phks.signature(creature_mesh, matching="closest")
+    with pytest.raises(phks.Error) as e:
+        phks.score(creature_nearest, creature_signature)
+    assert e.value.status == phks.Status.INCOMPATIBLE
+
+
+def test_verified_score_is_asymmetric(creature_signature, other_signature):
+    a, b = creature_signature, other_signature
+    assert phks.score(a, a) == pytest.approx(0, abs=1e-12)
+    ab, ba = phks.score(a, b), phks.score(b, a)
+    assert 0 < ab <= 1 and 0 < ba <= 1
+    # Query first: the n^2 of 1 - E / n^2 is the query's feature count.
+    assert ab != pytest.approx(ba, rel=1e-6)
+
+
+def test_verified_match(creature_signature, other_signature):
+    a, b = creature_signature, other_signature
+    m = phks.match(a, b)
+    na, nb = len(a), len(b)
+    assert m.score == phks.score(a, b)
+    np.testing.assert_array_equal(m.from_a, [True] * na + [False] * nb)
+    np.testing.assert_array_equal(m.feature_a[:na], np.arange(na))
+    np.testing.assert_array_equal(m.feature_b[na:], np.arange(nb))
+    # Every row's distance is that of the pair it names.
+    np.testing.assert_allclose(
+        m.distance, np.abs(a.vectors[m.feature_a] -
+                           b.vectors[m.feature_b]).sum(axis=1), rtol=1e-12)
+    ok = m.verified[:na]
+    assert ok.any()
+    # The verified pairs are one to one; a's other rows and all of b's
+    # name the nearest feature.
+    pairs = set(zip(m.feature_a[:na][ok], m.feature_b[:na][ok]))
+    assert len({fb for _, fb in pairs}) == len(pairs)
+    ia, _ = l1_nearest(a.vectors, b.vectors)
+    ib, _ = l1_nearest(b.vectors, a.vectors)
+    np.testing.assert_array_equal(m.feature_b[:na][~ok], ia[~ok])
+    np.testing.assert_array_equal(m.feature_a[na:], ib)
+    # b's row is verified exactly when its pair is one of a's.
+    back = [(fa, fb) in pairs for fa, fb in
+            zip(m.feature_a[na:], m.feature_b[na:])]
+    np.testing.assert_array_equal(m.verified[na:], back)
 
 
 def test_incompatible_signatures(creature_mesh, creature_signature):
