@@ -59,10 +59,17 @@ static double uniform(uint64_t *state)
 static phks_signature *synthetic(uint64_t *state)
 {
     phks_signature *sig;
-    if (phks__signature_alloc(FEATURES, SCALES, &sig) != PHKS_OK)
+    if (phks__signature_alloc(FEATURES, PHKS__SAMPLES, SCALES, &sig) != PHKS_OK)
         return NULL;
     phks_options_init(&sig->options);
-    for (size_t i = 0; i < FEATURES; i++) {
+    if (phks__signature_alloc_layout(sig) != PHKS_OK) {
+        phks_signature_free(sig);
+        return NULL;
+    }
+    for (size_t k = 0; k < phks__pair_count(FEATURES + PHKS__SAMPLES); k++)
+        sig->geodesic[k] = (float)uniform(state);
+    for (size_t i = 0; i < FEATURES + PHKS__SAMPLES; i++) {
+        sig->boundary[i] = INFINITY;
         sig->vertex[i] = (uint32_t)i;
         for (int d = 0; d < 3; d++)
             sig->position[3 * i + d] = uniform(state);

@@ -56,13 +56,16 @@ static bool damaged(void)
 static phks_signature *query_signature(void)
 {
     phks_signature *sig = NULL;
-    FUZZ_CHECK(phks__signature_alloc(2, 15, &sig) == PHKS_OK);
+    FUZZ_CHECK(phks__signature_alloc(2, 0, 15, &sig) == PHKS_OK);
     FUZZ_CHECK(phks_options_init(&sig->options) == PHKS_OK);
+    FUZZ_CHECK(phks__signature_alloc_layout(sig) == PHKS_OK);
+    sig->geodesic[0] = 1;
     for (size_t i = 0; i < 2; i++) {
         sig->vertex[i] = (uint32_t)i;
         for (int d = 0; d < 3; d++)
             sig->position[3 * i + d] = (double)(i + d);
         sig->persistence[i] = i ? 0.25 : INFINITY;
+        sig->boundary[i] = INFINITY;
         for (size_t s = 0; s < 15; s++)
             sig->vectors[15 * i + s] = 1.0 / (double)(1 + i + s);
     }

@@ -610,6 +610,15 @@ PHKS_API void phks_signature_free(phks_signature *signature);
  * HKS has fewer maxima) and the length of each vector (scale_count). */
 PHKS_API size_t phks_signature_feature_count(const phks_signature *signature);
 PHKS_API size_t phks_signature_vector_length(const phks_signature *signature);
+/* Samples: with PHKS_MATCHING_VERIFIED, up to 20 more points spread over
+ * the surface (each the farthest, in a straight line, from the features
+ * and the samples before it), with their own vectors, after the
+ * features: indices feature_count .. feature_count + sample_count - 1 of
+ * the accessors below, with persistence 0, positions and vectors rounded
+ * to floats. A part of a shape keeps few of its whole's maxima; the
+ * samples give its features places on the whole to land on (see
+ * phks_match). 0 with NEAREST. */
+PHKS_API size_t phks_signature_sample_count(const phks_signature *signature);
 /* Feature i: mesh vertex, position in input coordinates (3 doubles into
  * xyz), persistence, and the HKS vector (vector_length values, owned by the
  * signature; HKS at each of options.scales, scaled by options.hks_scaling:
@@ -659,8 +668,10 @@ PHKS_API phks_status phks_signature_decode(const void *buffer, size_t size,
  * their vectors; the score is 1 - E / n^2, n the query's feature count
  * and E the affinity of the largest one-to-one set of proposals whose
  * distances along the surface agree, up to one scale between the two
- * unit boxes (docs/method.md section 14). In [0, 1]; 0 for a signature
- * against itself. Asymmetric: the query is the first argument, the entry
+ * unit boxes (docs/method.md section 14). In [0, 1]; 0 when every
+ * feature of the query is verified against itself, as for a signature
+ * against itself (unless a symmetry of the shape offers another set
+ * about as consistent: then close to 0). Asymmetric: the query is the first argument, the entry
  * (a database's) the second; a query whose features all find their
  * places in the entry scores low even when the entry has more. Invariant
  * to bending (the distances are intrinsic) and to the enlargement of a
@@ -700,7 +711,9 @@ typedef struct phks_correspondence {
 
 /* The score and its pairs: first one row per feature of a (from_a = 1),
  * then one per feature of b (from_a = 0). A's rows name, with VERIFIED,
- * the feature's verified partner when it has one (verified = 1), and
+ * the feature's verified partner when it has one (verified = 1; a
+ * feature or a sample of b: feature_b may be up to feature_count(b) +
+ * sample_count(b) - 1), and
  * otherwise, as with NEAREST, its nearest feature of b; b's rows name
  * the nearest feature of a (verified = 1 when that pair is verified).
  * Ties go to the lower index. out needs room for feature_count(a) +

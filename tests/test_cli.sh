@@ -111,14 +111,23 @@ run "$phks" signature a.sig --json; expect_rc 0 "signature --json of a blob"
 $py -c 'import json,sys; d=json.load(sys.stdin)
 assert d["vertex_ids"] == "cleaned" and d["source"] == "signature"' < out ||
     fail "blob --json"
+run "$phks" --matching nearest match a.off b.off --json
+expect_rc 0 "match --matching nearest --json"
+cp out nearest.json
 run "$phks" match a.off b.off --json; expect_rc 0 "match --json"
 cp out match.json
 run "$phks" match a.off b.off; expect_rc 0 "match text"
 text_score=$(sed -n 's/^score //p' out)
 $py -c 'import json,sys; d=json.load(open("match.json"))
+n = json.load(open("nearest.json"))
 assert "%.6g" % d["score"] == sys.argv[1], (d["score"], sys.argv[1])
+c = n["correspondences"]
+assert abs(sum(x["distance"] for x in c) - n["score"]) < 1e-9 * n["score"]
+assert not any(x["verified"] for x in c)
+# verified: the paper score times 1 - the share verified, never above it
+assert 0 <= d["score"] <= n["score"] * (1 + 1e-12), (d["score"], n["score"])
 c = d["correspondences"]
-assert abs(sum(x["distance"] for x in c) - d["score"]) < 1e-9 * d["score"]
+assert all(isinstance(x["verified"], bool) for x in c)
 assert {x["direction"] for x in c} == {"a_to_b", "b_to_a"}
 for x in c:
     assert 0 <= x["vertex_a"] < 266 and 0 <= x["vertex_b"] < 266

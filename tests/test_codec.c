@@ -9,8 +9,10 @@
 static phks_signature *make(size_t count, uint64_t seed)
 {
     phks_signature *sig;
-    ck_assert_int_eq(phks__signature_alloc(count, 15, &sig), PHKS_OK);
+    ck_assert_int_eq(phks__signature_alloc(count, 0, 15, &sig), PHKS_OK);
     phks_options_init(&sig->options);
+    /* The paper's matching: no layout (format 4's is in test_verify.c). */
+    sig->options.matching = PHKS_MATCHING_NEAREST;
     for (size_t i = 0; i < count; i++) {
         sig->vertex[i] = (uint32_t)(i * 7);
         for (int d = 0; d < 3; d++)
@@ -202,7 +204,7 @@ START_TEST(every_damage_is_refused)
         ck_assert(st == PHKS_ERROR_TRUNCATED || st == PHKS_ERROR_CORRUPT);
     }
     memcpy(copy, blob, size);
-    copy[4] = 4; /* a newer format */
+    copy[4] = 5; /* a newer format */
     ck_assert_int_eq(phks_signature_decode(copy, size, &out),
                      PHKS_ERROR_UNSUPPORTED_VERSION);
     ck_assert_int_eq(phks_signature_decode(NULL, size, &out),

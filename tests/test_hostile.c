@@ -717,8 +717,9 @@ END_TEST
 static bytes signature_blob(void)
 {
     phks_signature *sig;
-    ck_assert_int_eq(phks__signature_alloc(2, 15, &sig), PHKS_OK);
+    ck_assert_int_eq(phks__signature_alloc(2, 0, 15, &sig), PHKS_OK);
     phks_options_init(&sig->options);
+    sig->options.matching = PHKS_MATCHING_NEAREST;
     for (size_t i = 0; i < 2; i++) {
         sig->vertex[i] = (uint32_t)i;
         for (int d = 0; d < 3; d++)

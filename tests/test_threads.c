@@ -96,9 +96,16 @@ static phks_signature *synthetic(const phks_signature *like, size_t count,
                                  double scale, uint64_t *rng)
 {
     phks_signature *sig;
-    ck_assert_int_eq(phks__signature_alloc(count, like->length, &sig), PHKS_OK);
+    ck_assert_int_eq(phks__signature_alloc(count, 0, like->length, &sig), PHKS_OK);
     sig->options = like->options;
+    if (like->geodesic) {
+        ck_assert_int_eq(phks__signature_alloc_layout(sig), PHKS_OK);
+        for (size_t k = 0; k < phks__pair_count(count); k++)
+            sig->geodesic[k] = (float)test_random(rng);
+    }
     for (size_t i = 0; i < count; i++) {
+        if (sig->boundary)
+            sig->boundary[i] = INFINITY;
         sig->vertex[i] = (uint32_t)i;
         for (int d = 0; d < 3; d++)
             sig->position[3 * i + d] = test_random(rng);

@@ -8,9 +8,9 @@
 #include "shapes.h"
 #include "soup.h"
 #include "testutil.h"
+#include "db/db_cache.h"
 
 #include <math.h>
-#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -309,96 +309,188 @@ static void check_pairs(const catalogue *c, size_t e, const phks_signature *q,
     free(pairs);
 }
 
+/* Rank of entry `own` and the share of q's verified pairs in it that
+ * are right (check_pairs), added to *first, *verified and *correct. */
+static void tally(const catalogue *c, size_t own, const phks_signature *q,
+                  const uint32_t *source, size_t *first, size_t *verified,
+                  size_t *correct)
+{
+    size_t v, k;
+    *first += rank_of(c, q, own) == 1;
+    check_pairs(c, own, q, source, &v, &k);
+    *verified += v;
+    *correct += k;
+}
+
+/* The same creature bent into another pose: the distances along the
+ * surface do not change, so nearly every verified pair is right and the
+ * source ranks first among the 20 (measured: all five first, 68 of 73
+ * pairs right). */
 START_TEST(bend_keeps_correspondences)
 {
     catalogue c;
     catalogue_make(&c);
+    size_t first = 0, verified = 0, correct = 0;
     for (unsigned kind = 0; kind < SHAPE_KIND_COUNT; kind++) {
         shape_mesh s;
         individual(kind, 0, QUERY_POSE, &s);
-        phks_mesh *m = mesh_of(s.xyz, s.vertex_count, s.triangles, s.triangle_count);
-        uint32_t *source = malloc(s.vertex_count * sizeof *source);
-        for (size_t v = 0; v < s.vertex_count; v++)
-            source[v] = (uint32_t)v;
+        phks_mesh *m = mesh_of(s.xyz, s.vertex_count, s.triangles,
+                               s.triangle_count);
         phks_signature *q = signature_of(m);
-        size_t own = kind * INDIVIDUALS, rank = rank_of(&c, q, own), v, k;
-        check_pairs(&c, own, q, source, &v, &k);
-        fprintf(stderr, "%s bent: rank %zu, %zu of %zu verified right\n",
-                shape_creature_name(kind), rank, k, v);
+        size_t before = verified;
+        tally(&c, kind * INDIVIDUALS, q, phks_mesh_vertex_origin(m), &first,
+              &verified, &correct);
+        ck_assert_uint_ge(verified - before, 10);
         phks_signature_free(q);
         phks_mesh_free(m);
-        free(source);
         shape_mesh_free(&s);
     }
+    ck_assert_uint_eq(first, SHAPE_KIND_COUNT);
+    ck_assert_msg(correct >= 0.85 * (double)verified, "%zu of %zu right",
+                  correct, verified);
     catalogue_free(&c);
 }
 END_TEST
 
-static void diagnose(const catalogue *c, size_t e, const phks_signature *q,
-                     const uint32_t *source)
+/* The creature with the third of its longest extent (axis-aligned)
+ * beyond two thirds cut off: the triangles whose three corners are kept.
+ * The mesh keeps the creature's vertex numbering as its origin. */
+static phks_mesh *cut_third(const shape_mesh *s)
 {
-    size_t nq = q->count, ne = c->sig[e]->count, nv = phks_mesh_vertex_count(c->mesh[e]);
-    double *d = malloc(nv * sizeof *d);
-    double tol = 0.1 * sqrt(phks_mesh_area(c->mesh[e]));
-    int hist[6] = {0};
-    for (size_t i = 0; i < nq; i++) {
-        uint32_t truth = source[q->vertex[i]];
-        phks_mesh_geodesic_distances(c->mesh[e], NULL, truth, d);
-        size_t best = 0;
-        for (size_t j = 1; j < ne; j++)
-            if (d[c->sig[e]->vertex[j]] < d[c->sig[e]->vertex[best]]) best = j;
-        if (d[c->sig[e]->vertex[best]] > tol) { hist[5]++; continue; }
-        double dj = 0;
-        for (size_t k = 0; k < q->length; k++) dj += fabs(q->vectors[i*q->length+k] - c->sig[e]->vectors[best*q->length+k]);
-        size_t rank = 0;
-        for (size_t j = 0; j < ne; j++) {
-            double dd = 0;
-            for (size_t k = 0; k < q->length; k++) dd += fabs(q->vectors[i*q->length+k] - c->sig[e]->vectors[j*q->length+k]);
-            rank += dd < dj;
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (size_t v = 0; v < s->vertex_count; v++)
+        for (int d = 0; d < 3; d++) {
+            lo[d] = fmin(lo[d], s->xyz[3 * v + d]);
+            hi[d] = fmax(hi[d], s->xyz[3 * v + d]);
         }
-        hist[rank < 4 ? rank : 4]++;
+    int axis = 0;
+    for (int d = 1; d < 3; d++)
+        if (hi[d] - lo[d] > hi[axis] - lo[axis])
+            axis = d;
+    double keep = lo[axis] + 2 * (hi[axis] - lo[axis]) / 3;
+    uint32_t *tri = malloc(3 * s->triangle_count * sizeof *tri);
+    size_t nt = 0;
+    for (size_t t = 0; t < s->triangle_count; t++) {
+        const uint32_t *c = s->triangles + 3 * t;
+        if (s->xyz[3 * c[0] + axis] <= keep && s->xyz[3 * c[1] + axis] <= keep &&
+            s->xyz[3 * c[2] + axis] <= keep)
+            for (int k = 0; k < 3; k++)
+                tri[3 * nt + k] = c[k];
+        nt += s->xyz[3 * c[0] + axis] <= keep && s->xyz[3 * c[1] + axis] <= keep &&
+              s->xyz[3 * c[2] + axis] <= keep;
     }
-    fprintf(stderr, "  true counterpart rank 0:%d 1:%d 2:%d 3:%d >3:%d none:%d\n", hist[0], hist[1], hist[2], hist[3], hist[4], hist[5]);
-    free(d);
+    phks_mesh *m = mesh_of(s->xyz, s->vertex_count, tri, nt);
+    free(tri);
+    return m;
 }
 
-/* Partial scans of each creature in a new pose, from four view
- * directions, against the catalogue of 20 (five kinds, four individuals
- * each, all in another pose). */
-START_TEST(scan_in_new_pose_finds_its_source)
+/* Cuts and partial scans in a new pose, against the catalogue of 20
+ * (five kinds, four individuals each, three of them stretched 1.3 x
+ * along an axis). Measured, for the record of what the method does on
+ * such coarse creatures (500 to 1,300 vertices): a cut of a third ranks
+ * its source first for 1 of 5 creatures and a scan from four directions
+ * for 0 of 20 (the stretched twins and other kinds come first), short of
+ * what the method is for; docs/retrieval.md has the benchmark's figures.
+ * What holds: the verified pairs land within 0.1 sqrt(area) of the truth
+ * (or its mirror image) far more often than chance, under 4% for a
+ * random point (measured: 14 of 55 for the cuts, 45 of 177 for the
+ * scans). */
+START_TEST(parts_verify_right_pairs)
 {
     catalogue c;
     catalogue_make(&c);
-    size_t first = 0, scans = 0, verified = 0, correct = 0;
-    for (unsigned kind = 0; kind < SHAPE_KIND_COUNT; kind++)
+    size_t first = 0, verified = 0, correct = 0;
+    for (unsigned kind = 0; kind < SHAPE_KIND_COUNT; kind++) {
+        shape_mesh s;
+        individual(kind, 0, QUERY_POSE, &s);
+        phks_mesh *m = cut_third(&s);
+        phks_signature *q = signature_of(m);
+        tally(&c, kind * INDIVIDUALS, q, phks_mesh_vertex_origin(m), &first,
+              &verified, &correct);
+        phks_signature_free(q);
+        phks_mesh_free(m);
         for (uint64_t seed = 0; seed < 4; seed++) {
-            shape_mesh s;
-            individual(kind, 0, QUERY_POSE, &s);
             piece p;
             ck_assert_int_eq(piece_partial_scan(s.xyz, s.vertex_count,
                                                 s.triangles, s.triangle_count,
                                                 40 + seed + 7 * kind, &p),
                              0);
             uint32_t *source;
-            phks_mesh *m = piece_mesh(&p, &source);
-            phks_signature *q = signature_of(m);
-            size_t own = kind * INDIVIDUALS, rank = rank_of(&c, q, own), v, k;
-            check_pairs(&c, own, q, source, &v, &k);
-            diagnose(&c, own, q, source);
-            fprintf(stderr, "%s scan %u: rank %zu, %zu of %zu verified right\n",
-                    shape_creature_name(kind), (unsigned)seed, rank, k, v);
-            first += rank == 1;
-            scans++;
-            verified += v;
-            correct += k;
+            m = piece_mesh(&p, &source);
+            q = signature_of(m);
+            tally(&c, kind * INDIVIDUALS, q, source, &first, &verified,
+                  &correct);
             phks_signature_free(q);
             phks_mesh_free(m);
             free(source);
             piece_free(&p);
-            shape_mesh_free(&s);
         }
-    fprintf(stderr, "first %zu of %zu; %zu of %zu verified right\n", first,
-            scans, correct, verified);
+        shape_mesh_free(&s);
+    }
+    ck_assert_uint_ge(verified, 100);
+    ck_assert_msg(correct >= 0.15 * (double)verified, "%zu of %zu right",
+                  correct, verified);
+    catalogue_free(&c);
+}
+END_TEST
+
+/* phks_db_query with verified signatures is the documented two stages:
+ * the best PHKS__DB_SHORTLIST entries by phks_score_nearest (ties: lower
+ * id), ranked by phks_score (ties: lower id), on 160 entries (eight
+ * copies of each of the catalogue's 20, so that ties cross the
+ * shortlist's edge). */
+START_TEST(database_query_is_two_stages)
+{
+    catalogue c;
+    catalogue_make(&c);
+    enum { COPIES = 8, N = COPIES * SHAPE_KIND_COUNT * INDIVIDUALS, K = 10 };
+    phks_db *db;
+    ck_assert_int_eq(phks_db_open(":memory:", PHKS_DB_CREATE, &db), PHKS_OK);
+    int64_t ids[N];
+    for (size_t e = 0; e < N; e++)
+        ck_assert_int_eq(phks_db_add(db, "creature", NULL,
+                                     c.sig[e % (N / COPIES)], &ids[e]),
+                         PHKS_OK);
+    shape_mesh s;
+    individual(SHAPE_HUMANOID, 0, QUERY_POSE, &s);
+    phks_mesh *m = cut_third(&s);
+    phks_signature *q = signature_of(m);
+    /* Brute force: scores of every entry, sorted as documented. */
+    struct ranked { double score; int64_t id; size_t e; } all[N], tmp;
+    for (size_t e = 0; e < N; e++) {
+        all[e].id = ids[e];
+        all[e].e = e;
+        ck_assert_int_eq(phks_score_nearest(q, c.sig[e % (N / COPIES)],
+                                            &all[e].score),
+                         PHKS_OK);
+    }
+    for (int stage = 0; stage < 2; stage++) {
+        size_t n = stage ? PHKS__DB_SHORTLIST : N;
+        for (size_t i = 0; i < n; i++)
+            for (size_t j = i + 1; j < n; j++)
+                if (all[j].score < all[i].score ||
+                    (all[j].score == all[i].score && all[j].id < all[i].id)) {
+                    tmp = all[i];
+                    all[i] = all[j];
+                    all[j] = tmp;
+                }
+        for (size_t i = 0; !stage && i < PHKS__DB_SHORTLIST; i++)
+            ck_assert_int_eq(phks_score(q, c.sig[all[i].e % (N / COPIES)],
+                                        &all[i].score),
+                             PHKS_OK);
+    }
+    phks_hit hits[K];
+    size_t count;
+    ck_assert_int_eq(phks_db_query(db, q, K, hits, &count), PHKS_OK);
+    ck_assert_uint_eq(count, K);
+    for (size_t i = 0; i < K; i++) {
+        ck_assert_int_eq(hits[i].id, all[i].id);
+        ck_assert(hits[i].score == all[i].score);
+    }
+    phks_db_close(db);
+    phks_signature_free(q);
+    phks_mesh_free(m);
+    shape_mesh_free(&s);
     catalogue_free(&c);
 }
 END_TEST
@@ -412,7 +504,8 @@ int main(void)
     tcase_add_test(c, pieces_join_within_reach);
     tcase_add_test(c, signature_keeps_feature_distances);
     tcase_add_test(c, bend_keeps_correspondences);
-    tcase_add_test(c, scan_in_new_pose_finds_its_source);
+    tcase_add_test(c, parts_verify_right_pairs);
+    tcase_add_test(c, database_query_is_two_stages);
     suite_add_tcase(s, c);
     return run_suite(s);
 }

@@ -189,10 +189,18 @@ static phks_status options_blob(const phks_options *options, void **blob,
                                 size_t *size)
 {
     phks_signature *sig;
-    phks_status st = phks__signature_alloc(1, options->scale_count, &sig);
+    phks_status st = phks__signature_alloc(1, 0, options->scale_count, &sig);
     if (st != PHKS_OK)
         return st;
     sig->options = *options;
+    if (options->matching == PHKS_MATCHING_VERIFIED) {
+        st = phks__signature_alloc_layout(sig);
+        if (st != PHKS_OK) {
+            phks_signature_free(sig);
+            return st;
+        }
+        sig->boundary[0] = 0;
+    }
     sig->vertex[0] = 0;
     memset(sig->position, 0, 3 * sizeof *sig->position);
     sig->persistence[0] = 0;

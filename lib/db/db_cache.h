@@ -51,9 +51,10 @@ phks_status phks__db_cache_query(const phks__db_cache *cache,
                                 phks_hit *hits, size_t *count);
 
 /* ---- the verified stage (db_rerank.c) */
-/* Entries the packed scan hands to the verified score: the nearest-L1
- * rank of a class's right answer is rarely beyond it (docs/retrieval.md). */
-#define PHKS__DB_SHORTLIST 100
+/* Entries the packed scan hands to the verified score: re-ranking 100
+ * instead changes no answer of the benchmark (docs/retrieval.md), and
+ * each costs a verification (docs/benchmarks.md). */
+#define PHKS__DB_SHORTLIST 32
 /* Scores shortlist's m entries (read from db) by the verified score of
  * query, and returns the k best as phks_db_query does; entries removed
  * since the scan are left out. shortlist is reordered. */

@@ -28,8 +28,11 @@ phks_status phks__db_rerank(phks_db *db, const phks_signature *query,
         /* Removed since the scan: as if the query had come after. */
         if (st == PHKS_ERROR_INVALID_ARGUMENT)
             continue;
+        /* The scan's score is the paper's, the verified score's first
+         * factor. */
         if (st == PHKS_OK)
-            st = phks__verify(query, entry, NULL, &shortlist[h].score);
+            st = phks__verify(query, entry, shortlist[h].score, NULL,
+                              &shortlist[h].score);
         phks_signature_free(entry);
         if (st != PHKS_OK)
             return st;

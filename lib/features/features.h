@@ -25,15 +25,30 @@ struct phks_signature {
     phks_options options;  /* what shaped the numbers; see
                               phks__options_comparable                   */
     size_t count, length;  /* features, vector length (scale_count)    */
-    uint32_t *vertex;      /* count                                     */
-    double *position;      /* 3 * count, input coordinates              */
-    double *persistence;   /* count; INFINITY when unpaired             */
-    double *vectors;       /* count x length, row-major                 */
-    float *geodesic;       /* PHKS_MATCHING_VERIFIED: the distance along
-                              the surface (unit box) between features i
-                              < j at geodesic[phks__pair_index(i, j)];
-                              NULL with NEAREST                          */
+    size_t samples;        /* spread points after the features
+                              (PHKS_MATCHING_VERIFIED; 0 with NEAREST):
+                              the arrays below hold count + samples
+                              points, the features first                */
+    uint32_t *vertex;      /* points                                    */
+    double *position;      /* 3 * points, input coordinates             */
+    double *persistence;   /* points; INFINITY when unpaired, 0 for a
+                              sample                                    */
+    double *vectors;       /* points x length, row-major                */
+    float *geodesic;       /* VERIFIED: the distance along the surface
+                              (unit box) between points i < j at
+                              geodesic[phks__pair_index(i, j)]; NULL
+                              with NEAREST                               */
+    float *boundary;       /* VERIFIED: each point's straight-line
+                              distance to the mesh boundary (unit box;
+                              INFINITY on a closed mesh); NULL with
+                              NEAREST                                    */
 };
+
+/* Features and samples. */
+static inline size_t phks__signature_points(const phks_signature *sig)
+{
+    return sig->count + sig->samples;
+}
 
 /* Index of the pair i < j in a packed upper triangle without diagonal. */
 static inline size_t phks__pair_index(size_t i, size_t j)
@@ -45,26 +60,38 @@ static inline size_t phks__pair_count(size_t count)
     return count * (count - 1) / 2;
 }
 
-/* An empty signature with room for count features of length values. */
-phks_status phks__signature_alloc(size_t count, size_t length,
-                                 phks_signature **out);
-/* Room for sig->geodesic (count >= 2; none needed below). */
-phks_status phks__signature_alloc_geodesic(phks_signature *sig);
+/* An empty signature with room for count features and `samples` spread
+ * points of length values each. */
+phks_status phks__signature_alloc(size_t count, size_t samples, size_t length,
+                                  phks_signature **out);
+/* Room for sig->geodesic and sig->boundary. */
+phks_status phks__signature_alloc_layout(phks_signature *sig);
 
-/* ---- geodesics between feature points (signature_geodesic.c) */
-/* Fills sig->geodesic (allocating it) with the distances along um's
- * surface between sig's feature vertices: Dijkstra over the edges, the
- * pieces of a mesh joined within the operator's reach (cutoff sqrt(4
- * tau)). Pairs in pieces that stay apart get INFINITY. */
-phks_status phks__signature_geodesics(const phks__unit_mesh *um,
-                                      const phks_options *opt,
-                                      phks_signature *sig);
+/* ---- where the points lie (signature_layout.c) */
+/* The samples VERIFIED signatures spread after their features. */
+#define PHKS__SAMPLES 20
+/* Picks up to `wanted` vertices spread over um's surface, each the
+ * farthest (straight line, unit box) from the `given` vertices and those
+ * picked before it (ties: the lowest index), into out, and how many into
+ * *picked (fewer when no vertex is left apart from those). */
+phks_status phks__spread_vertices(const phks__unit_mesh *um,
+                                  const uint32_t *given, size_t given_count,
+                                  size_t wanted, uint32_t *out, size_t *picked);
+/* Fills sig->geodesic and sig->boundary (allocating them): the distances
+ * along um's surface between sig's points, Dijkstra over the edges with
+ * the pieces of a mesh joined within the operator's reach (cutoff
+ * sqrt(4 tau)); pairs in pieces that stay apart get INFINITY. The
+ * values are those a blob holds (floats). */
+phks_status phks__signature_layout(const phks__unit_mesh *um,
+                                   const phks_options *opt,
+                                   phks_signature *sig);
 
 /* ---- verified matching (verify.c) */
 /* The verified correspondences of query a in entry b and the score
- * phks_score documents for PHKS_MATCHING_VERIFIED. pair_of[i] (a->count
- * entries, may be NULL) gets the feature of b verified for feature i of
- * a, or UINT32_MAX. Both carry geodesics. */
+ * phks_score documents for PHKS_MATCHING_VERIFIED, given `nearest`, the
+ * paper's score of a and b. pair_of[i] (a->count entries, may be NULL)
+ * gets the point of b verified for feature i of a, or UINT32_MAX. Both
+ * carry their layouts. */
 phks_status phks__verify(const phks_signature *a, const phks_signature *b,
-                         uint32_t *pair_of, double *score);
+                         double nearest, uint32_t *pair_of, double *score);
 #endif /* PHKS_FEATURES_H */

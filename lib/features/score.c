@@ -53,6 +53,47 @@ static phks_status check_pair(const phks_signature *a, const phks_signature *b,
     return PHKS_OK;
 }
 
+/* The paper's score, and into out (NULL: not wanted) its pairs: a row
+ * per feature of a, then one per feature of b. */
+static double nearest_pairs(const phks_signature *a, const phks_signature *b,
+                            phks_correspondence *out)
+{
+    double total = 0;
+    for (int side = 0; side < 2; side++) {
+        const phks_signature *from = side ? b : a, *to = side ? a : b;
+        for (size_t i = 0; i < from->count; i++) {
+            double d;
+            size_t j = nearest(from, i, to, &d);
+            total += d;
+            if (out)
+                out[(side ? a->count : 0) + i] = (phks_correspondence){
+                    (uint32_t)(side ? j : i), (uint32_t)(side ? i : j), d,
+                    side == 0, 0};
+        }
+    }
+    return total;
+}
+
+/* Marks the verified pairs of out, and names in a's rows each verified
+ * feature's partner (pair_of, from phks__verify). */
+static void mark_verified(const phks_signature *a, const phks_signature *b,
+                          const uint32_t *pair_of, phks_correspondence *out)
+{
+    for (size_t r = 0; r < a->count + b->count; r++) {
+        phks_correspondence *c = out + r;
+        uint32_t partner = pair_of[c->feature_a];
+        if (partner == UINT32_MAX)
+            continue;
+        if (c->from_a) {
+            c->feature_b = partner;
+            c->distance = l1(a->vectors + c->feature_a * a->length,
+                             b->vectors + (size_t)partner * b->length,
+                             a->length);
+        }
+        c->verified = partner == c->feature_b;
+    }
+}
+
 phks_status phks_match(const phks_signature *a, const phks_signature *b,
                        phks_correspondence *out, size_t capacity, size_t *count,
                        double *score)
@@ -67,49 +108,20 @@ phks_status phks_match(const phks_signature *a, const phks_signature *b,
         return phks__fail(PHKS_ERROR_BUFFER_TOO_SMALL,
                          "phks_match: room for %zu correspondences, %zu needed",
                          capacity, needed);
-    bool verified = a->options.matching == PHKS_MATCHING_VERIFIED;
-    uint32_t *pair_of = NULL;
-    double total = 0;
-    if (verified) {
-        pair_of = phks__malloc_array(a->count, sizeof *pair_of);
+    double total = nearest_pairs(a, b, out);
+    if (a->options.matching == PHKS_MATCHING_VERIFIED) {
+        uint32_t *pair_of = phks__malloc_array(a->count + 1, sizeof *pair_of);
         if (!pair_of)
             return phks__fail_oom("phks_match");
-        st = phks__verify(a, b, pair_of, &total);
-        if (st != PHKS_OK) {
-            phks__free(pair_of);
+        st = phks__verify(a, b, total, pair_of, &total);
+        if (st == PHKS_OK && out)
+            mark_verified(a, b, pair_of, out);
+        phks__free(pair_of);
+        if (st != PHKS_OK)
             return st;
-        }
     }
-    double nearest_total = 0;
-    for (int side = 0; side < 2 && (out || !verified); side++) {
-        const phks_signature *from = side ? b : a, *to = side ? a : b;
-        for (size_t i = 0; i < from->count; i++) {
-            double d;
-            size_t j = nearest(from, i, to, &d);
-            nearest_total += d;
-            if (!out)
-                continue;
-            phks_correspondence *c = out + (side ? a->count : 0) + i;
-            size_t fa = side ? j : i, fb = side ? i : j;
-            c->verified = 0;
-            if (pair_of && pair_of[fa] != UINT32_MAX) {
-                c->verified = pair_of[fa] == fb || side == 0;
-                /* A's own row names its verified partner. */
-                if (side == 0) {
-                    fb = pair_of[fa];
-                    d = l1(a->vectors + fa * a->length,
-                           b->vectors + fb * b->length, a->length);
-                }
-            }
-            c->feature_a = (uint32_t)fa;
-            c->feature_b = (uint32_t)fb;
-            c->distance = d;
-            c->from_a = side == 0;
-        }
-    }
-    phks__free(pair_of);
     if (score)
-        *score = verified ? total : nearest_total;
+        *score = total;
     return PHKS_OK;
 }
 
@@ -120,19 +132,9 @@ phks_status phks_score_nearest(const phks_signature *a,
         return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "phks_score_nearest: NULL score");
     phks_status st = check_pair(a, b, "phks_score_nearest");
-    if (st != PHKS_OK)
-        return st;
-    double total = 0, d;
-    for (size_t i = 0; i < a->count; i++) {
-        nearest(a, i, b, &d);
-        total += d;
-    }
-    for (size_t j = 0; j < b->count; j++) {
-        nearest(b, j, a, &d);
-        total += d;
-    }
-    *score = total;
-    return PHKS_OK;
+    if (st == PHKS_OK)
+        *score = nearest_pairs(a, b, NULL);
+    return st;
 }
 
 phks_status phks_score(const phks_signature *a, const phks_signature *b,

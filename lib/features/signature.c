@@ -18,21 +18,24 @@ void phks_signature_free(phks_signature *sig)
     phks__free(sig->persistence);
     phks__free(sig->vectors);
     phks__free(sig->geodesic);
+    phks__free(sig->boundary);
     phks__free(sig);
 }
 
-phks_status phks__signature_alloc(size_t count, size_t length,
-                                 phks_signature **out)
+phks_status phks__signature_alloc(size_t count, size_t samples, size_t length,
+                                  phks_signature **out)
 {
     phks_signature *sig = phks__calloc(1, sizeof *sig);
     if (!sig)
         return phks__fail_oom("signature");
     sig->count = count;
+    sig->samples = samples;
     sig->length = length;
-    sig->vertex = phks__malloc_array(count, sizeof *sig->vertex);
-    sig->position = phks__malloc_array(count, 3 * sizeof *sig->position);
-    sig->persistence = phks__malloc_array(count, sizeof *sig->persistence);
-    sig->vectors = phks__malloc_array(count, length * sizeof *sig->vectors);
+    size_t points = count + samples;
+    sig->vertex = phks__malloc_array(points, sizeof *sig->vertex);
+    sig->position = phks__malloc_array(points, 3 * sizeof *sig->position);
+    sig->persistence = phks__malloc_array(points, sizeof *sig->persistence);
+    sig->vectors = phks__malloc_array(points, length * sizeof *sig->vectors);
     if (!sig->vertex || !sig->position || !sig->persistence || !sig->vectors) {
         phks_signature_free(sig);
         return phks__fail_oom("signature");
@@ -41,11 +44,13 @@ phks_status phks__signature_alloc(size_t count, size_t length,
     return PHKS_OK;
 }
 
-phks_status phks__signature_alloc_geodesic(phks_signature *sig)
+phks_status phks__signature_alloc_layout(phks_signature *sig)
 {
-    size_t pairs = phks__pair_count(sig->count);
+    size_t points = phks__signature_points(sig), pairs = phks__pair_count(points);
     sig->geodesic = phks__malloc_array(pairs ? pairs : 1, sizeof *sig->geodesic);
-    return sig->geodesic ? PHKS_OK : phks__fail_oom("feature geodesics");
+    sig->boundary = phks__malloc_array(points, sizeof *sig->boundary);
+    return sig->geodesic && sig->boundary ? PHKS_OK
+                                          : phks__fail_oom("signature layout");
 }
 
 /* The spectrum must come from the same operator as the options describe;
@@ -96,6 +101,7 @@ typedef struct {
 static void areas_range(void *ctx, size_t begin, size_t end)
 {
     const areas_ctx *c = ctx;
+    /* begin and end count points, features and samples alike. */
     for (size_t i = begin; i < end; i++)
         phks__local_areas(&c->surface, c->sig->vertex[i], c->radius2,
                           c->sig->length, c->area + i * c->sig->length);
@@ -130,8 +136,9 @@ static phks_status local_areas(const phks__unit_mesh *um,
     areas_ctx c = {surface, sig, radius2, area};
     unsigned threads = phks__thread_count(opt);
     phks__span at = {opt, PHKS_STAGE_PERSISTENCE, 0.95, 0.05};
-    phks_status st = phks__run_batched(sig->count, threads, areas_range, &c,
-                                       at, (sig->count + threads - 1) / threads);
+    size_t points = phks__signature_points(sig);
+    phks_status st = phks__run_batched(points, threads, areas_range, &c, at,
+                                       (points + threads - 1) / threads);
     phks__quadrature_release(&quad);
     return st;
 }
@@ -157,9 +164,10 @@ static phks_status feature_vectors(const phks__unit_mesh *um,
         radius2[s] = 4 * opt->scales[s] * opt->tau;
     }
     bool local = opt->hks_scaling == PHKS_HKS_SCALING_LOCAL_AREA;
+    size_t points = phks__signature_points(sig);
     double *area = NULL;
-    if (local && sig->count) {
-        area = phks__malloc_array(sig->count, S * sizeof *area);
+    if (local && points) {
+        area = phks__malloc_array(points, S * sizeof *area);
         if (!area)
             return phks__fail_oom("feature vectors");
         phks_status st = local_areas(um, opt, sig, radius2, area);
@@ -168,7 +176,7 @@ static phks_status feature_vectors(const phks__unit_mesh *um,
             return st;
         }
     }
-    for (size_t i = 0; i < sig->count; i++) {
+    for (size_t i = 0; i < points; i++) {
         uint32_t v = sig->vertex[i];
         double *out = sig->vectors + i * S;
         for (size_t s = 0; s < S; s++) {
@@ -178,6 +186,10 @@ static phks_status feature_vectors(const phks__unit_mesh *um,
             out[s] = local ? log(fmax(h * area[i * S + s] / (PHKS__PI * radius2[s]),
                                       DBL_MIN))
                            : h;
+            /* A sample is stored as a float (signature_codec.c): the
+             * numbers in memory are those a blob gives back. */
+            if (i >= sig->count)
+                out[s] = (float)out[s];
         }
     }
     phks__free(area);
@@ -220,6 +232,23 @@ static phks_status taper_at_boundary(const phks__unit_mesh *um,
     for (size_t v = 0; st == PHKS_OK && v < mesh->vertex_count; v++)
         h[v] *= -expm1(-(d[v] / m) * (d[v] / m));
     phks__free(d);
+    return st;
+}
+
+/* PHKS__SAMPLES vertices spread away from the maxima (fewer on a mesh
+ * with fewer vertices). */
+static phks_status spread_after(const phks__unit_mesh *um,
+                                const phks_maximum *maxima, size_t found,
+                                uint32_t spread[PHKS__SAMPLES], size_t *samples)
+{
+    uint32_t *given = phks__malloc_array(found + 1, sizeof *given);
+    if (!given)
+        return phks__fail_oom("spread samples");
+    for (size_t i = 0; i < found; i++)
+        given[i] = maxima[i].vertex;
+    phks_status st = phks__spread_vertices(um, given, found, PHKS__SAMPLES,
+                                           spread, samples);
+    phks__free(given);
     return st;
 }
 
@@ -274,8 +303,13 @@ static phks_status from_spectrum(const phks_mesh *mesh,
     if (st == PHKS_OK)
         st = phks__persistence_run(mesh, h, wanted, 0, at, maxima, &found,
                                    NULL);
+    size_t samples = 0;
+    uint32_t spread[PHKS__SAMPLES];
+    bool verified = opt->matching == PHKS_MATCHING_VERIFIED;
+    if (st == PHKS_OK && verified)
+        st = spread_after(um, maxima, found, spread, &samples);
     if (st == PHKS_OK)
-        st = phks__signature_alloc(found, opt->scale_count, &sig);
+        st = phks__signature_alloc(found, samples, opt->scale_count, &sig);
     if (st != PHKS_OK)
         goto done;
     sig->options = *opt;
@@ -287,9 +321,16 @@ static phks_status from_spectrum(const phks_mesh *mesh,
         memcpy(sig->position + 3 * i, mesh->xyz + 3 * (size_t)v, 3 * sizeof(double));
         sig->persistence[i] = maxima[i].persistence;
     }
+    for (size_t i = 0; i < samples; i++) {
+        sig->vertex[found + i] = spread[i];
+        for (int d = 0; d < 3; d++)
+            sig->position[3 * (found + i) + d] =
+                (float)mesh->xyz[3 * (size_t)spread[i] + d];
+        sig->persistence[found + i] = 0;
+    }
     st = feature_vectors(um, spec, opt, sig);
-    if (st == PHKS_OK && opt->matching == PHKS_MATCHING_VERIFIED)
-        st = phks__signature_geodesics(um, opt, sig);
+    if (st == PHKS_OK && verified)
+        st = phks__signature_layout(um, opt, sig);
     if (st == PHKS_OK)
         st = phks__progress(opt, PHKS_STAGE_PERSISTENCE, 1);
 done:
@@ -356,17 +397,18 @@ phks_status phks_signature_compute(const phks_mesh *mesh,
 }
 
 size_t phks_signature_feature_count(const phks_signature *s) { return s ? s->count : 0; }
+size_t phks_signature_sample_count(const phks_signature *s) { return s ? s->samples : 0; }
 size_t phks_signature_vector_length(const phks_signature *s) { return s ? s->length : 0; }
 
 uint32_t phks_signature_feature_vertex(const phks_signature *s, size_t i)
 {
-    return s && i < s->count ? s->vertex[i] : UINT32_MAX;
+    return s && i < phks__signature_points(s) ? s->vertex[i] : UINT32_MAX;
 }
 
 phks_status phks_signature_feature_position(const phks_signature *s, size_t i,
                                             double xyz[3])
 {
-    if (!s || !xyz || i >= s->count)
+    if (!s || !xyz || i >= phks__signature_points(s))
         return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "phks_signature_feature_position: no feature %zu", i);
     memcpy(xyz, s->position + 3 * i, 3 * sizeof(double));
@@ -375,12 +417,12 @@ phks_status phks_signature_feature_position(const phks_signature *s, size_t i,
 
 double phks_signature_feature_persistence(const phks_signature *s, size_t i)
 {
-    return s && i < s->count ? s->persistence[i] : NAN;
+    return s && i < phks__signature_points(s) ? s->persistence[i] : NAN;
 }
 
 const double *phks_signature_feature_vector(const phks_signature *s, size_t i)
 {
-    return s && i < s->count ? s->vectors + i * s->length : NULL;
+    return s && i < phks__signature_points(s) ? s->vectors + i * s->length : NULL;
 }
 
 phks_status phks_signature_options(const phks_signature *s, phks_options *options)

@@ -12,8 +12,11 @@
  *   f64 scales[scale_count]
  *   u32 count, then per feature:
  *     u32 vertex  f64 x y z  f64 persistence  f64 vector[scale_count]
- *   (format 4 on, matching VERIFIED:) f32 geodesic[count (count - 1) / 2],
- *     the pairs i < j in the order j = 1.., i = 0..j-1
+ *   (format 4 on, matching VERIFIED:) u32 samples, then per sample:
+ *     u32 vertex  f32 x y z  f32 vector[scale_count]
+ *   then, with p = count + samples points, f32 boundary[p] and
+ *   f32 geodesic[p (p - 1) / 2], the pairs i < j in the order j = 1..,
+ *   i = 0..j-1
  *   u32 CRC-32 of every byte before it
  * A reader refuses a format number above its own rather than guess, and
  * reads every older one: format 1 blobs predate the two format-2 fields and
@@ -43,18 +46,26 @@ static size_t header_size(unsigned format)
            (format >= 4 ? FORMAT_4_FIELDS : 0);
 }
 
+/* samples is SIZE_MAX for a signature without a layout (NEAREST). */
 static size_t blob_size(unsigned format, size_t scales, size_t count,
-                        bool geodesics)
+                        size_t samples)
 {
-    return header_size(format) + 8 * scales + 4 +
-           count * (FEATURE_FIXED + 8 * scales) +
-           (geodesics ? 4 * phks__pair_count(count) : 0) + 4;
+    size_t size = header_size(format) + 8 * scales + 4 +
+                  count * (FEATURE_FIXED + 8 * scales) + 4;
+    if (samples == SIZE_MAX)
+        return size;
+    size_t points = count + samples;
+    return size + 4 + samples * (4 + 12 + 4 * scales) + 4 * points +
+           4 * phks__pair_count(points);
 }
 
-static bool has_geodesics(const phks_options *o)
+static size_t layout_samples(const phks_signature *sig)
 {
-    return o->matching == PHKS_MATCHING_VERIFIED;
+    return sig->options.matching == PHKS_MATCHING_VERIFIED ? sig->samples
+                                                           : SIZE_MAX;
 }
+
+
 
 static unsigned char *put_u16(unsigned char *p, uint16_t x)
 {
@@ -129,10 +140,45 @@ static unsigned format_of(const phks_signature *sig)
     return sig->options.quadrature != PHKS_QUADRATURE_VERTICES ? 3 : 2;
 }
 
+static unsigned char *put_layout(unsigned char *p, const phks_signature *sig)
+{
+    size_t points = phks__signature_points(sig);
+    p = put_u32(p, (uint32_t)sig->samples);
+    for (size_t i = sig->count; i < points; i++) {
+        p = put_u32(p, sig->vertex[i]);
+        for (int d = 0; d < 3; d++)
+            p = put_f32(p, (float)sig->position[3 * i + d]);
+        for (size_t s = 0; s < sig->length; s++)
+            p = put_f32(p, (float)sig->vectors[i * sig->length + s]);
+    }
+    for (size_t i = 0; i < points; i++)
+        p = put_f32(p, sig->boundary[i]);
+    for (size_t k = 0; k < phks__pair_count(points); k++)
+        p = put_f32(p, sig->geodesic[k]);
+    return p;
+}
+
+static void get_layout(const unsigned char *p, phks_signature *sig)
+{
+    size_t points = phks__signature_points(sig);
+    for (size_t i = sig->count; i < points; i++) {
+        sig->vertex[i] = get_u32(&p);
+        for (int d = 0; d < 3; d++)
+            sig->position[3 * i + d] = get_f32(&p);
+        sig->persistence[i] = 0;
+        for (size_t s = 0; s < sig->length; s++)
+            sig->vectors[i * sig->length + s] = get_f32(&p);
+    }
+    for (size_t i = 0; i < points; i++)
+        sig->boundary[i] = get_f32(&p);
+    for (size_t k = 0; k < phks__pair_count(points); k++)
+        sig->geodesic[k] = get_f32(&p);
+}
+
 size_t phks_signature_encoded_size(const phks_signature *sig)
 {
     return sig ? blob_size(format_of(sig), sig->length, sig->count,
-                           has_geodesics(&sig->options))
+                           layout_samples(sig))
                : 0;
 }
 
@@ -142,9 +188,13 @@ phks_status phks_signature_encode(const phks_signature *sig, void *buffer,
     if (!sig || !size || (!buffer && capacity))
         return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "phks_signature_encode: NULL argument");
+    if (layout_samples(sig) != SIZE_MAX && (!sig->geodesic || !sig->boundary))
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
+                         "phks_signature_encode: a verified-matching "
+                         "signature without its distances");
     const unsigned format = format_of(sig);
     size_t need = blob_size(format, sig->length, sig->count,
-                            has_geodesics(&sig->options));
+                            layout_samples(sig));
     *size = need;
     if (capacity < need)
         return phks__fail(PHKS_ERROR_BUFFER_TOO_SMALL,
@@ -180,8 +230,8 @@ phks_status phks_signature_encode(const phks_signature *sig, void *buffer,
         for (size_t s = 0; s < sig->length; s++)
             p = put_f64(p, sig->vectors[i * sig->length + s]);
     }
-    for (size_t k = 0; has_geodesics(o) && k < phks__pair_count(sig->count); k++)
-        p = put_f32(p, sig->geodesic[k]);
+    if (layout_samples(sig) != SIZE_MAX)
+        p = put_layout(p, sig);
     put_u32(p, phks__crc32(start, (size_t)(p - start)));
     return PHKS_OK;
 }
@@ -198,7 +248,7 @@ static phks_status check_numbers(const phks_signature *sig)
         return phks__fail(PHKS_ERROR_CORRUPT, "signature blob: bad options (%s)",
                          why);
     }
-    for (size_t i = 0; i < sig->count; i++) {
+    for (size_t i = 0; i < phks__signature_points(sig); i++) {
         bool ok = !isnan(sig->persistence[i]) && sig->persistence[i] >= 0;
         for (int d = 0; d < 3; d++)
             ok = ok && isfinite(sig->position[3 * i + d]);
@@ -207,6 +257,7 @@ static phks_status check_numbers(const phks_signature *sig)
         /* Pieces that stay apart are INFINITY apart; never negative. */
         for (size_t j = 0; ok && sig->geodesic && j < i; j++)
             ok = sig->geodesic[phks__pair_index(j, i)] >= 0;
+        ok = ok && (!sig->boundary || sig->boundary[i] >= 0);
         if (!ok)
             return phks__fail(PHKS_ERROR_CORRUPT,
                              "signature blob: feature %zu holds an impossible "
@@ -272,7 +323,21 @@ phks_status phks_signature_decode(const void *buffer, size_t size,
     for (uint32_t s = 0; s < o.scale_count; s++)
         o.scales[s] = get_f64(&p);
     uint32_t count = get_u32(&p);
-    size_t need = blob_size(format, o.scale_count, count, has_geodesics(&o));
+    /* The samples' count sits after the features. */
+    size_t samples = SIZE_MAX;
+    size_t features_end = blob_size(format, o.scale_count, count, SIZE_MAX) - 4;
+    if (o.matching == PHKS_MATCHING_VERIFIED) {
+        if (size < features_end + 4)
+            return phks__fail(PHKS_ERROR_TRUNCATED,
+                             "signature blob: %zu bytes, %u features need more",
+                             size, count);
+        const unsigned char *at = start + features_end;
+        samples = get_u32(&at);
+        if (samples > PHKS__SAMPLES)
+            return phks__fail(PHKS_ERROR_CORRUPT,
+                             "signature blob: %zu samples", samples);
+    }
+    size_t need = blob_size(format, o.scale_count, count, samples);
     if (size < need)
         return phks__fail(PHKS_ERROR_TRUNCATED,
                          "signature blob: %zu bytes, %u features need %zu",
@@ -289,9 +354,10 @@ phks_status phks_signature_decode(const void *buffer, size_t size,
         return phks__fail(PHKS_ERROR_CORRUPT, "signature blob: no features");
 
     phks_signature *sig;
-    phks_status st = phks__signature_alloc(count, o.scale_count, &sig);
-    if (st == PHKS_OK && has_geodesics(&o)) {
-        st = phks__signature_alloc_geodesic(sig);
+    phks_status st = phks__signature_alloc(
+        count, samples == SIZE_MAX ? 0 : samples, o.scale_count, &sig);
+    if (st == PHKS_OK && samples != SIZE_MAX) {
+        st = phks__signature_alloc_layout(sig);
         if (st != PHKS_OK)
             phks_signature_free(sig);
     }
@@ -306,8 +372,8 @@ phks_status phks_signature_decode(const void *buffer, size_t size,
         for (size_t s = 0; s < o.scale_count; s++)
             sig->vectors[i * o.scale_count + s] = get_f64(&p);
     }
-    for (size_t k = 0; has_geodesics(&o) && k < phks__pair_count(count); k++)
-        sig->geodesic[k] = get_f32(&p);
+    if (samples != SIZE_MAX)
+        get_layout(p + 4, sig);
     st = check_numbers(sig);
     if (st != PHKS_OK) {
         phks_signature_free(sig);

@@ -2,21 +2,23 @@
  * verify.c - PHKS_MATCHING_VERIFIED: descriptors propose, geometry
  * decides (docs/method.md section 14).
  *
- * Each feature of the query a proposes its CANDIDATES nearest features of
- * the entry b by vector distance. Two proposals (i, j) and (i', j') agree
- * when the distance along a's surface between i and i' is that along b's
- * between j and j', times the scale s of a's unit box against b's. The
- * largest mutually agreeing set is found as Leordeanu and Hebert's
- * spectral matching does: the leading eigenvector of the proposals'
- * affinity matrix, read greedily into a one-to-one set whose members each
- * agree with most of those taken before them. The score is one minus
- * that set's affinity over the most a query of its size can reach.
+ * Each feature of the query a proposes the CANDIDATES points of the
+ * entry b (features and samples) whose vectors are nearest. Two
+ * proposals (i, j) and (i', j') agree when the distance along a's
+ * surface between i and i' is that along b's between j and j', times the
+ * scale s of a's unit box against b's. The largest mutually agreeing set
+ * is found as Leordeanu and Hebert's spectral matching does: the leading
+ * eigenvector of the proposals' affinity matrix, read greedily into a
+ * one-to-one set whose members each agree with most of those taken
+ * before them. Its affinity over the most a query of its size can reach
+ * is the share Q of the query that b explains, and the score is the
+ * paper's nearest-L1 score times 1 - Q.
  *
- * The scale s is voted for by the ratios of the proposals' distances:
- * the unit box of a cut shape enlarges what is left of it. With the
- * local-area scaling a shape scaled by s has at time t the vector its
- * unscaled self has at t / s^2 (docs/method.md section 9), so b's vectors
- * are then read at the shifted times before proposals are made again.
+ * The scale is not known: the unit box of a cut shape enlarges what is
+ * left of it. Every s = 2^(k/4), |k| <= SCALE_STEPS, is tried and the
+ * best set kept. With the local-area scaling a shape scaled by s has at
+ * time t the vector its unscaled self has at t / s^2 (docs/method.md
+ * section 9), so b's vectors are read at the shifted times.
  */
 #include "features/features.h"
 
@@ -24,11 +26,12 @@
 #include <math.h>
 #include <string.h>
 
-/* Proposals per query feature. */
-#define CANDIDATES 3
+/* Proposals per query feature: about as many of b's 35 points as 3 of
+ * its 15 features. */
+#define CANDIDATES 6
 /* Vector distance at which a proposal's own affinity falls to 1/e, per
- * entry of the vector: the logarithms of the local-area scaling differ by
- * 0.15 where HKS A_t differs by about 16%. */
+ * time scale: the logarithms of the local-area scaling differ by 0.15
+ * where HKS A_t differs by about 16%. */
 #define VECTOR_SIGMA 0.15
 /* Relative disagreement of two distances at which a pair's affinity
  * falls to 1/e. A query's own distance may be longer: a cut or a scan
@@ -39,29 +42,41 @@
 #define AGREEMENT 0.5
 /* Power iterations: the leading eigenvector of a non-negative matrix of
  * a few dozen rows settles well within them. */
-#define ITERATIONS 30
-/* The scale vote: log2 s in bins of 1 / SCALE_BINS_PER_OCTAVE, from
- * -SCALE_HALF_BINS to SCALE_HALF_BINS of them (1.5 octaves: a cut that
- * leaves a third of a shape's extent). */
-#define SCALE_BINS_PER_OCTAVE 8
-#define SCALE_HALF_BINS 12
+#define ITERATIONS 10
+/* Scales tried: 2^(k/4) for |k| <= SCALE_STEPS, an octave either way in
+ * steps whose half (9%) is well inside DISTANCE_SIGMA. */
+#define SCALE_STEPS 4
 
 typedef struct proposal {
     uint32_t i, j;
-    double distance, affinity;
+    double affinity, root; /* and its square root */
 } proposal;
+
+/* A non-zero entry of the affinity matrix above its diagonal. */
+typedef struct pair_entry {
+    uint32_t p, q;
+    double w;
+} pair_entry;
 
 typedef struct verify_ctx {
     const phks_signature *a, *b;
+    size_t na, nb;    /* a's features, b's points                         */
     size_t length;
     double sigma;     /* vector distance scale: VECTOR_SIGMA * length     */
     double slack;     /* positional uncertainty of a feature point        */
     double *va, *vb;  /* vectors as compared (logarithms)                 */
+    double *wa, *wb;  /* per point and scale: how far the heat stays
+                         from the boundary (1: all of it)               */
     double *vb_shift; /* b's vectors read at the times shifted by scale   */
-    double *dist;     /* a->count x b->count                              */
+    double *dist;     /* na x nb vector distances                         */
+    double *trust;    /* na x nb: the weight left in dist, 0..1           */
     proposal *p;
     size_t count;
-    double *m, *x, *y;
+    pair_entry *pairs; /* the matrix's non-zero entries above the diagonal */
+    size_t pair_count;
+    double *x, *y;
+    size_t *set;
+    double scale;      /* of the set being read                           */
 } verify_ctx;
 
 static double geodesic(const phks_signature *s, size_t i, size_t j)
@@ -72,11 +87,28 @@ static double geodesic(const phks_signature *s, size_t i, size_t j)
 
 /* The vectors in a form where a ratio is a difference: the local-area
  * scaling's values already are logarithms. */
-static void compared_vectors(const phks_signature *s, double *out)
+static void compared_vectors(const phks_signature *s, size_t points,
+                             double *out)
 {
     bool logs = s->options.hks_scaling == PHKS_HKS_SCALING_LOCAL_AREA;
-    for (size_t k = 0; k < s->count * s->length; k++)
+    for (size_t k = 0; k < points * s->length; k++)
         out[k] = logs ? s->vectors[k] : log(fmax(s->vectors[k], DBL_MIN));
+}
+
+/* How much of a point's value at each time scale is its own shape's:
+ * heat at time t has spread over about sqrt(4 t), and what reached a cut
+ * tells of the cut, not of the shape: 1 - exp(-(d / sqrt(4 t))^2) for a
+ * point d from the boundary, the profile of the boundary taper
+ * (docs/method.md section 8). */
+static void boundary_weights(const phks_signature *s, size_t points,
+                             double *out)
+{
+    const phks_options *o = &s->options;
+    for (size_t i = 0; i < points; i++)
+        for (size_t k = 0; k < s->length; k++) {
+            double d = s->boundary[i] / sqrt(4 * o->scales[k] * o->tau);
+            out[i * s->length + k] = isinf(d) ? 1 : -expm1(-d * d);
+        }
 }
 
 /* b's vectors read at times t / s^2 by linear interpolation in log t,
@@ -90,52 +122,70 @@ static void shift_times(const verify_ctx *c, double scale, double *out)
         size_t k = 0;
         while (k + 2 < L && log(o->scales[k + 1]) < t)
             k++;
-        double t0 = log(o->scales[k]), t1 = log(o->scales[k + 1]);
-        double w = L > 1 ? (t - t0) / (t1 - t0) : 0;
-        w = w < 0 ? 0 : w > 1 ? 1 : w;
-        for (size_t f = 0; f < c->b->count; f++) {
+        double w = 0;
+        if (L > 1) {
+            double t0 = log(o->scales[k]), t1 = log(o->scales[k + 1]);
+            w = fmin(fmax((t - t0) / (t1 - t0), 0), 1);
+        }
+        for (size_t f = 0; f < c->nb; f++) {
             const double *v = c->vb + f * L;
             out[f * L + s] = L > 1 ? (1 - w) * v[k] + w * v[k + 1] : v[0];
         }
     }
 }
 
+/* dist(i, j): the L1 distance of the vectors' steps from one time scale
+ * to the next, each weighted by how much of both points' values there
+ * are their shapes', scaled back to the full length; the weight left, in
+ * trust. Steps rather than values: a part of a shape differs from its
+ * whole by a factor in HKS A_t that hardly changes over the larger
+ * scales (its mass spreads over a different total), which the steps
+ * cancel. */
 static void distances(verify_ctx *c, const double *vb)
 {
-    size_t L = c->length;
-    for (size_t i = 0; i < c->a->count; i++)
-        for (size_t j = 0; j < c->b->count; j++) {
-            double s = 0;
-            for (size_t k = 0; k < L; k++)
-                s += fabs(c->va[i * L + k] - vb[j * L + k]);
-            c->dist[i * c->b->count + j] = s;
+    size_t L = c->length, steps = L > 1 ? L - 1 : 1;
+    for (size_t i = 0; i < c->na; i++)
+        for (size_t j = 0; j < c->nb; j++) {
+            const double *x = c->va + i * L, *y = vb + j * L;
+            double s = 0, w = 0;
+            for (size_t k = 0; k < steps; k++) {
+                double wk = c->wa[i * L + k] * c->wb[j * L + k];
+                double dk = L > 1 ? (x[k + 1] - y[k + 1]) - (x[k] - y[k])
+                                  : x[0] - y[0];
+                s += wk * fabs(dk);
+                w += wk;
+            }
+            c->dist[i * c->nb + j] = w > 0 ? s / w * (double)L : INFINITY;
+            c->trust[i * c->nb + j] = w / (double)steps;
         }
 }
 
-/* Each query feature's CANDIDATES nearest entry features (lower index
+/* Each query feature's CANDIDATES nearest entry points (lower index
  * first on ties). */
 static void propose(verify_ctx *c)
 {
-    size_t nb = c->b->count, per = nb < CANDIDATES ? nb : CANDIDATES;
+    size_t nb = c->nb, per = nb < CANDIDATES ? nb : CANDIDATES;
     c->count = 0;
-    for (size_t i = 0; i < c->a->count; i++) {
+    for (size_t i = 0; i < c->na; i++) {
         const double *row = c->dist + i * nb;
         proposal *mine = c->p + c->count;
         size_t have = 0;
         for (size_t j = 0; j < nb; j++) {
-            if (have == per && row[j] >= mine[per - 1].distance)
+            if (have == per && row[j] >= row[mine[per - 1].j])
                 continue;
             size_t at = have < per ? have++ : per - 1;
-            for (; at > 0 && mine[at - 1].distance > row[j]; at--)
+            for (; at > 0 && row[mine[at - 1].j] > row[j]; at--)
                 mine[at] = mine[at - 1];
-            mine[at] = (proposal){(uint32_t)i, (uint32_t)j, row[j],
-                                  exp(-row[j] / c->sigma)};
+            double u = exp(-row[j] / c->sigma) * c->trust[i * nb + j];
+            mine[at] = (proposal){(uint32_t)i, (uint32_t)j, u, sqrt(u)};
         }
         c->count += have;
     }
 }
 
-/* How well two distances agree, 1 at equality (see DISTANCE_SIGMA). */
+/* How well two distances agree, 1 at equality (see DISTANCE_SIGMA); 0
+ * beyond 3 sigma, where exp(-9) is nothing to a set's affinity and most
+ * pairs of proposals lie: the matrix stays sparse. */
 static double agreement(const verify_ctx *c, double ga, double gb)
 {
     if (!isfinite(ga) || !isfinite(gb))
@@ -144,61 +194,25 @@ static double agreement(const verify_ctx *c, double ga, double gb)
     if (e > 0)
         e /= 2;
     e /= DISTANCE_SIGMA;
-    return exp(-e * e);
+    return fabs(e) < 3 ? exp(-e * e) : 0;
 }
 
-/* The scale of a's unit box against b's most proposals agree with. */
-static double vote_scale(const verify_ctx *c)
-{
-    enum { BINS = 2 * SCALE_HALF_BINS + 1 };
-    double votes[BINS] = {0};
-    for (size_t p = 0; p < c->count; p++)
-        for (size_t q = p + 1; q < c->count; q++) {
-            const proposal *x = c->p + p, *y = c->p + q;
-            if (x->i == y->i || x->j == y->j)
-                continue;
-            double ga = geodesic(c->a, x->i, y->i), gb = geodesic(c->b, x->j, y->j);
-            /* Short distances say little about a ratio. */
-            if (!(ga > 2 * c->slack && gb > 2 * c->slack) || !isfinite(ga) ||
-                !isfinite(gb))
-                continue;
-            double bin = log2(ga / gb) * SCALE_BINS_PER_OCTAVE + SCALE_HALF_BINS;
-            if (bin < 0 || bin > BINS - 1)
-                continue;
-            votes[(size_t)(bin + 0.5)] += x->affinity * y->affinity;
-        }
-    /* Neighbouring bins count half, so a vote split by a bin edge is
-     * not lost. */
-    size_t best = BINS / 2;
-    double top = -1;
-    for (size_t k = 0; k < BINS; k++) {
-        double v = votes[k] + 0.5 * ((k ? votes[k - 1] : 0) +
-                                     (k + 1 < BINS ? votes[k + 1] : 0));
-        if (v > top + 1e-300) {
-            top = v;
-            best = k;
-        }
-    }
-    if (top <= 0)
-        return 1;
-    return exp2(((double)best - SCALE_HALF_BINS) / SCALE_BINS_PER_OCTAVE);
-}
-
+/* The affinity matrix, kept sparse: most pairs of proposals disagree. */
 static void affinities(verify_ctx *c, double scale)
 {
     size_t n = c->count;
-    for (size_t p = 0; p < n; p++) {
-        c->m[p * n + p] = c->p[p].affinity;
+    c->pair_count = 0;
+    for (size_t p = 0; p < n; p++)
         for (size_t q = p + 1; q < n; q++) {
             const proposal *x = c->p + p, *y = c->p + q;
-            double w = 0;
-            if (x->i != y->i && x->j != y->j)
-                w = agreement(c, geodesic(c->a, x->i, y->i),
-                              scale * geodesic(c->b, x->j, y->j)) *
-                    sqrt(x->affinity * y->affinity);
-            c->m[p * n + q] = c->m[q * n + p] = w;
+            if (x->i == y->i || x->j == y->j || !(x->root * y->root > 0))
+                continue;
+            double w = agreement(c, geodesic(c->a, x->i, y->i),
+                                 scale * geodesic(c->b, x->j, y->j));
+            if (w > 0)
+                c->pairs[c->pair_count++] =
+                    (pair_entry){(uint32_t)p, (uint32_t)q, w * x->root * y->root};
         }
-    }
 }
 
 static void leading_vector(verify_ctx *c)
@@ -207,14 +221,16 @@ static void leading_vector(verify_ctx *c)
     for (size_t p = 0; p < n; p++)
         c->x[p] = 1 / sqrt((double)n);
     for (int it = 0; it < ITERATIONS; it++) {
-        double norm = 0;
-        for (size_t p = 0; p < n; p++) {
-            double s = 0;
-            for (size_t q = 0; q < n; q++)
-                s += c->m[p * n + q] * c->x[q];
-            c->y[p] = s;
-            norm += s * s;
+        for (size_t p = 0; p < n; p++)
+            c->y[p] = c->p[p].affinity * c->x[p];
+        for (size_t k = 0; k < c->pair_count; k++) {
+            const pair_entry *e = c->pairs + k;
+            c->y[e->p] += e->w * c->x[e->q];
+            c->y[e->q] += e->w * c->x[e->p];
         }
+        double norm = 0;
+        for (size_t p = 0; p < n; p++)
+            norm += c->y[p] * c->y[p];
         if (!(norm > 0))
             return;
         norm = sqrt(norm);
@@ -223,12 +239,20 @@ static void leading_vector(verify_ctx *c)
     }
 }
 
+/* The matrix entry of two proposals, computed again: the set is small. */
+static double pair_weight(const verify_ctx *c, const proposal *x,
+                          const proposal *y)
+{
+    return agreement(c, geodesic(c->a, x->i, y->i),
+                     c->scale * geodesic(c->b, x->j, y->j)) *
+           x->root * y->root;
+}
+
 /* Reads the eigenvector greedily into a one-to-one set and returns its
  * affinity; pair_of as phks__verify's. */
 static double select_set(verify_ctx *c, uint32_t *pair_of)
 {
     size_t n = c->count, taken = 0;
-    size_t *set = (size_t *)(void *)c->y; /* y is free again: n slots */
     double total = 0;
     for (;;) {
         size_t best = n;
@@ -242,17 +266,14 @@ static double select_set(verify_ctx *c, uint32_t *pair_of)
         double with = 0;
         bool clash = false;
         for (size_t k = 0; k < taken && !clash; k++) {
-            const proposal *y = c->p + set[k];
+            const proposal *y = c->p + c->set[k];
             clash = x->i == y->i || x->j == y->j;
-            with += c->m[best * n + set[k]];
+            with += pair_weight(c, x, y);
         }
-        if (clash)
+        if (clash || (taken && with / (double)taken <
+                                   AGREEMENT * x->root * c->p[c->set[0]].root))
             continue;
-        double mean = taken ? with / (double)taken : 0;
-        if (taken && mean < AGREEMENT * sqrt(x->affinity) *
-                                sqrt(c->p[set[0]].affinity))
-            continue;
-        set[taken++] = best;
+        c->set[taken++] = best;
         total += x->affinity + 2 * with;
         if (pair_of)
             pair_of[x->i] = x->j;
@@ -260,60 +281,93 @@ static double select_set(verify_ctx *c, uint32_t *pair_of)
     return total;
 }
 
+/* The verified set's affinity at one scale. */
+static double try_scale(verify_ctx *c, double scale, uint32_t *pair_of)
+{
+    const double *vb = c->vb;
+    if (scale != 1 &&
+        c->a->options.hks_scaling == PHKS_HKS_SCALING_LOCAL_AREA) {
+        shift_times(c, scale, c->vb_shift);
+        vb = c->vb_shift;
+    }
+    c->scale = scale;
+    distances(c, vb);
+    propose(c);
+    affinities(c, scale);
+    leading_vector(c);
+    for (size_t i = 0; i < c->na; i++)
+        pair_of[i] = UINT32_MAX;
+    return select_set(c, pair_of);
+}
+
 static void release(verify_ctx *c)
 {
-    phks__free(c->va);
-    phks__free(c->vb);
-    phks__free(c->vb_shift);
-    phks__free(c->dist);
-    phks__free(c->p);
-    phks__free(c->m);
-    phks__free(c->x);
-    phks__free(c->y);
+    void *owned[] = {c->va, c->vb, c->wa, c->wb, c->vb_shift, c->dist,
+                     c->trust, c->p, c->pairs, c->x, c->y, c->set};
+    for (size_t k = 0; k < sizeof owned / sizeof owned[0]; k++)
+        phks__free(owned[k]);
+}
+
+static phks_status allocate(verify_ctx *c)
+{
+    size_t na = c->na, nb = c->nb, L = c->length;
+    size_t most = na * (nb < CANDIDATES ? nb : CANDIDATES) + 1;
+    c->va = phks__malloc_array(na, L * sizeof *c->va);
+    c->vb = phks__malloc_array(nb, L * sizeof *c->vb);
+    c->wa = phks__malloc_array(na, L * sizeof *c->wa);
+    c->wb = phks__malloc_array(nb, L * sizeof *c->wb);
+    c->vb_shift = phks__malloc_array(nb, L * sizeof *c->vb_shift);
+    c->dist = phks__malloc_array(na, nb * sizeof *c->dist);
+    c->trust = phks__malloc_array(na, nb * sizeof *c->trust);
+    c->p = phks__malloc_array(most, sizeof *c->p);
+    c->pairs = phks__malloc_array(most, most / 2 * sizeof *c->pairs);
+    c->x = phks__malloc_array(most, sizeof *c->x);
+    c->y = phks__malloc_array(most, sizeof *c->y);
+    c->set = phks__malloc_array(most, sizeof *c->set);
+    if (c->va && c->vb && c->wa && c->wb && c->vb_shift && c->dist &&
+        c->trust && c->p && c->pairs && c->x && c->y && c->set)
+        return PHKS_OK;
+    release(c);
+    return phks__fail_oom("verified matching");
 }
 
 phks_status phks__verify(const phks_signature *a, const phks_signature *b,
-                         uint32_t *pair_of, double *score)
+                         double nearest, uint32_t *pair_of, double *score)
 {
-    size_t na = a->count, nb = b->count, L = a->length;
-    size_t most = na * (nb < CANDIDATES ? nb : CANDIDATES);
     verify_ctx c = {0};
     c.a = a;
     c.b = b;
-    c.length = L;
-    c.sigma = VECTOR_SIGMA * (double)L;
+    c.na = a->count;
+    c.nb = phks__signature_points(b);
+    c.length = a->length;
+    c.sigma = VECTOR_SIGMA * (double)c.length;
     c.slack = sqrt(4 * a->options.feature_scale * a->options.tau);
-    c.va = phks__malloc_array(na, L * sizeof *c.va);
-    c.vb = phks__malloc_array(nb, L * sizeof *c.vb);
-    c.vb_shift = phks__malloc_array(nb, L * sizeof *c.vb_shift);
-    c.dist = phks__malloc_array(na, nb * sizeof *c.dist);
-    c.p = phks__malloc_array(most + 1, sizeof *c.p);
-    c.m = phks__malloc_array(most * most + 1, sizeof *c.m);
-    c.x = phks__malloc_array(most + 1, sizeof *c.x);
-    c.y = phks__malloc_array(most + 1, sizeof(double) > sizeof(size_t)
-                                           ? sizeof(double)
-                                           : sizeof(size_t));
-    if (!c.va || !c.vb || !c.vb_shift || !c.dist || !c.p || !c.m || !c.x ||
-        !c.y) {
+    phks_status st = allocate(&c);
+    uint32_t *trial = phks__malloc_array(c.na + 1, sizeof *trial);
+    if (st == PHKS_OK && !trial) {
         release(&c);
-        return phks__fail_oom("verified matching");
+        st = phks__fail_oom("verified matching");
     }
-    for (size_t i = 0; pair_of && i < na; i++)
-        pair_of[i] = UINT32_MAX;
-    compared_vectors(a, c.va);
-    compared_vectors(b, c.vb);
-    distances(&c, c.vb);
-    propose(&c);
-    double scale = vote_scale(&c);
-    if (scale != 1 && a->options.hks_scaling == PHKS_HKS_SCALING_LOCAL_AREA) {
-        shift_times(&c, scale, c.vb_shift);
-        distances(&c, c.vb_shift);
-        propose(&c);
+    if (st != PHKS_OK) {
+        phks__free(trial);
+        return st;
     }
-    affinities(&c, scale);
-    leading_vector(&c);
-    double total = select_set(&c, pair_of);
-    *score = 1 - total / ((double)na * (double)na);
+    compared_vectors(a, c.na, c.va);
+    compared_vectors(b, c.nb, c.vb);
+    boundary_weights(a, c.na, c.wa);
+    boundary_weights(b, c.nb, c.wb);
+    double best = 0;
+    for (int k = -SCALE_STEPS; k <= SCALE_STEPS; k++) {
+        double e = try_scale(&c, exp2(k / 4.0), trial);
+        if (e > best || k == -SCALE_STEPS) {
+            best = e;
+            if (pair_of)
+                memcpy(pair_of, trial, c.na * sizeof *pair_of);
+        }
+    }
+    double n = (double)c.na;
+    *score = nearest * (1 - fmin(best / (n * n), 1));
+    phks__free(trial);
     release(&c);
     return PHKS_OK;
 }

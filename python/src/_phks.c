@@ -949,18 +949,44 @@ static PyObject *Signature_get_persistence(SignatureObject *self, void *c)
     return arr;
 }
 
-static PyObject *Signature_get_vectors(SignatureObject *self, void *c)
+/* The vectors of points [first, first + k): features, then samples. */
+static PyObject *vectors_of(const phks_signature *sig, size_t first, size_t k)
 {
-    size_t k = phks_signature_feature_count(self->sig);
-    size_t len = phks_signature_vector_length(self->sig);
+    size_t len = phks_signature_vector_length(sig);
     npy_intp dims[2] = {(npy_intp)k, (npy_intp)len};
     PyObject *arr = PyArray_SimpleNew(2, dims, NPY_DOUBLE);
     if (!arr)
         return NULL;
     double *out = PyArray_DATA((PyArrayObject *)arr);
     for (size_t i = 0; i < k; i++)
-        memcpy(out + i * len, phks_signature_feature_vector(self->sig, i),
+        memcpy(out + i * len, phks_signature_feature_vector(sig, first + i),
                len * sizeof *out);
+    return arr;
+}
+
+static PyObject *Signature_get_vectors(SignatureObject *self, void *c)
+{
+    return vectors_of(self->sig, 0, phks_signature_feature_count(self->sig));
+}
+
+static PyObject *Signature_get_sample_vectors(SignatureObject *self, void *c)
+{
+    return vectors_of(self->sig, phks_signature_feature_count(self->sig),
+                      phks_signature_sample_count(self->sig));
+}
+
+static PyObject *Signature_get_sample_mesh_vertices(SignatureObject *self,
+                                                    void *c)
+{
+    size_t f = phks_signature_feature_count(self->sig);
+    size_t k = phks_signature_sample_count(self->sig);
+    npy_intp dims[1] = {(npy_intp)k};
+    PyObject *arr = PyArray_SimpleNew(1, dims, NPY_UINT32);
+    if (!arr)
+        return NULL;
+    uint32_t *out = PyArray_DATA((PyArrayObject *)arr);
+    for (size_t i = 0; i < k; i++)
+        out[i] = phks_signature_feature_vertex(self->sig, f + i);
     return arr;
 }
 
@@ -1129,6 +1155,14 @@ static PyGetSetDef Signature_getset[] = {
      NULL},
     {"vectors", (getter)Signature_get_vectors, NULL,
      "(k, vector_length) float64: HKS at each time scale.", NULL},
+    {"sample_vectors", (getter)Signature_get_sample_vectors, NULL,
+     "(s, vector_length) float64: the vectors of the samples a verified "
+     "signature spreads after its features (s = 0 with matching "
+     "'nearest'); a match's feature_b from len(b) on is sample "
+     "feature_b - len(b).",
+     NULL},
+    {"sample_mesh_vertices", (getter)Signature_get_sample_mesh_vertices,
+     NULL, "(s,) uint32: each sample's vertex in the cleaned mesh.", NULL},
     {"vector_length", (getter)Signature_get_vector_length, NULL,
      "Entries of each vector (the options' scale count).", NULL},
     {"options", (getter)Signature_get_options, NULL,

@@ -216,8 +216,10 @@ def test_verified_score_is_asymmetric(creature_signature, other_signature):
     a, b = creature_signature, other_signature
     assert phks.score(a, a) == pytest.approx(0, abs=1e-12)
     ab, ba = phks.score(a, b), phks.score(b, a)
-    assert 0 < ab <= 1 and 0 < ba <= 1
-    # Query first: the n^2 of 1 - E / n^2 is the query's feature count.
+    # The paper's score times 1 - the share of the query verified.
+    assert 0 < ab <= phks.score_nearest(a, b)
+    assert 0 < ba <= phks.score_nearest(b, a)
+    # Query first: the share is the query's.
     assert ab != pytest.approx(ba, rel=1e-6)
 
 
@@ -229,10 +231,13 @@ def test_verified_match(creature_signature, other_signature):
     np.testing.assert_array_equal(m.from_a, [True] * na + [False] * nb)
     np.testing.assert_array_equal(m.feature_a[:na], np.arange(na))
     np.testing.assert_array_equal(m.feature_b[na:], np.arange(nb))
-    # Every row's distance is that of the pair it names.
+    # Every row's distance is that of the pair it names; a verified
+    # partner may be one of b's samples, numbered after its features.
+    points_b = np.vstack([b.vectors, b.sample_vectors])
+    assert len(b.sample_vectors) == 20
     np.testing.assert_allclose(
         m.distance, np.abs(a.vectors[m.feature_a] -
-                           b.vectors[m.feature_b]).sum(axis=1), rtol=1e-12)
+                           points_b[m.feature_b]).sum(axis=1), rtol=1e-12)
     ok = m.verified[:na]
     assert ok.any()
     # The verified pairs are one to one; a's other rows and all of b's

@@ -24,7 +24,7 @@ typedef struct fields {
     const phks_mesh *mesh;
     const phks_signature *sig;
     const phks_options *options;
-    double **of;  /* per feature of sig, NULL until needed */
+    double **of;  /* per feature and sample of sig, NULL until needed */
 } fields;
 
 static const double *field(fields *g, size_t feature)
@@ -117,7 +117,9 @@ static void source_task(void *ctx, size_t index)
                                                       1)];
     phks_mesh *mesh = NULL;
     const char *reason = NULL;
-    size_t nf = phks_signature_feature_count(whole->sig);
+    /* Verified partners may be samples, after the features. */
+    size_t nf = phks_signature_feature_count(whole->sig) +
+                phks_signature_sample_count(whole->sig);
     fields g = {NULL, whole->sig, &p->options, calloc(nf + 1, sizeof *g.of)};
     phks_status st = !whole->sig ? PHKS_ERROR_INVALID_ARGUMENT
                      : g.of ? bench_load(model, &mesh, &reason)

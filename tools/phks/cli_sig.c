@@ -162,7 +162,9 @@ static void json_match(const side *a, const side *b,
         cli_json_vec(pb, 3);
         fputs(", \"distance\": ", stdout);
         cli_json_number(c[i].distance);
-        printf(", \"direction\": \"%s\"}", c[i].from_a ? "a_to_b" : "b_to_a");
+        printf(", \"direction\": \"%s\", \"verified\": %s}",
+               c[i].from_a ? "a_to_b" : "b_to_a",
+               c[i].verified ? "true" : "false");
     }
     fputs("\n  ]\n}\n", stdout);
 }
@@ -174,6 +176,7 @@ static void text_match(const side *a, const side *b,
     printf("score %.6g\n", score);
     printf("%-6s %-6s %8s %8s %12s  %-32s %-32s\n", "a", "b", "vertex A",
            "vertex B", "L1", "position in A", "position in B");
+    /* "verified": the pair is one of the set the score verified. */
     for (size_t i = 0; i < count; i++) {
         double pa[3], pb[3];
         phks_signature_feature_position(a->sig, c[i].feature_a, pa);
@@ -185,7 +188,9 @@ static void text_match(const side *a, const side *b,
                cli_file_vertex(b->mesh, phks_signature_feature_vertex(
                                             b->sig, c[i].feature_b)),
                c[i].distance, pa[0], pa[1], pa[2], pb[0], pb[1], pb[2],
-               c[i].from_a ? "" : "  <- from B");
+               c[i].from_a ? (c[i].verified ? "  verified" : "")
+                           : (c[i].verified ? "  <- from B, verified"
+                                            : "  <- from B"));
     }
 }
 
