@@ -223,13 +223,15 @@ typedef enum phks_matching {
      * another class's is taken for it. */
     PHKS_MATCHING_NEAREST = 0,
     /* Correspondences verified by intrinsic geometry: the signature also
-     * keeps the distances along the surface between its feature points,
-     * and the score is that of the largest set of one-to-one
-     * correspondences whose vectors are close and whose distances agree
-     * (up to a scale, since the unit box enlarges a cut shape, and
-     * allowing a cut shape's distances to be longer, since a cut can only
-     * lengthen a path). Asymmetric: query first, entry second
-     * (docs/method.md section 14). The default since 0.2.0. */
+     * keeps samples spread over the surface and the distances along it
+     * between all its points, and the paper's score is discounted by
+     * the share of the query's features that a set of correspondences
+     * explains whose vectors are close and whose distances agree (up to
+     * a scale, since the unit box enlarges a cut shape, and allowing a
+     * cut shape's distances to be longer, since a cut can only lengthen
+     * a path). Asymmetric: query first, entry second (docs/method.md
+     * section 14; measured in docs/retrieval.md). The default since
+     * 0.2.0. */
     PHKS_MATCHING_VERIFIED = 1
 } phks_matching;
 
@@ -663,19 +665,20 @@ PHKS_API phks_status phks_signature_decode(const void *buffer, size_t size,
  * phks_score(query, entry): lower is more similar. What it measures is the
  * signatures' options.matching (both must have the same):
  *
- * PHKS_MATCHING_VERIFIED (the default): each feature of the query
- * proposes its 3 nearest features of the entry by the L1 distance of
- * their vectors; the score is 1 - E / n^2, n the query's feature count
- * and E the affinity of the largest one-to-one set of proposals whose
- * distances along the surface agree, up to one scale between the two
- * unit boxes (docs/method.md section 14). In [0, 1]; 0 when every
- * feature of the query is verified against itself, as for a signature
- * against itself (unless a symmetry of the shape offers another set
- * about as consistent: then close to 0). Asymmetric: the query is the first argument, the entry
- * (a database's) the second; a query whose features all find their
- * places in the entry scores low even when the entry has more. Invariant
- * to bending (the distances are intrinsic) and to the enlargement of a
- * cut shape's unit box.
+ * PHKS_MATCHING_VERIFIED (the default):
+ *   score(query, entry) = nearest(query, entry) (1 - Q)
+ * nearest the formula of NEAREST below and Q in [0, 1] the share of the
+ * query's features explained by the largest one-to-one set of
+ * correspondences (each feature of the query to one of the entry's
+ * features or samples) whose vectors are close and whose distances along
+ * the surface agree, up to one scale between the two unit boxes
+ * (docs/method.md section 14). 0 for a signature against itself; never
+ * above nearest. Asymmetric: the query is the first argument, the entry
+ * (a database's) the second; Q is the query's share, so a query that is
+ * a part of the entry is not charged for the entry's other points. Q
+ * does not change with bending (the distances are intrinsic) nor with
+ * the enlargement of a cut shape's unit box up to an octave (every scale
+ * between is tried).
  *
  * PHKS_MATCHING_NEAREST (the paper's):
  *   score(A, B) = sum_{a in A} min_{b in B} |a - b|_1
@@ -844,9 +847,14 @@ typedef struct phks_hit {
     char label[PHKS_DB_TEXT_MAX + 1];
 } phks_hit;
 
-/* The k entries with the lowest phks_score against query, best first; ties
- * go to the lower id. hits needs room for k records; *count gets
- * min(k, entries). The scores are exactly phks_score's. The first query
+/* The k best entries for query, best first; ties go to the lower id.
+ * hits needs room for k records; *count gets min(k, entries). With
+ * PHKS_MATCHING_NEAREST: the k with the lowest phks_score. With VERIFIED,
+ * in two stages: the max(k, 32) entries with the lowest
+ * phks_score_nearest (ties: lower id), scanned from the packed vectors,
+ * then those ranked by phks_score(query, entry), read back with their
+ * layouts; the scores are exactly phks_score's (docs/method.md section
+ * 14 says what the shortlist costs and loses). The first query
  * of a handle, and the first after another connection committed, loads
  * the packed copy the file keeps beside the entries (a read of its chunks,
  * slower than a scan on a large database: docs/benchmarks.md; a file of an

@@ -269,12 +269,12 @@ def hexfile(path):
 
 
 def two_stage(table, q, k):
-    """phks_db_query's top k as SQL (docs/postgres.md): the best max(k, 100)
+    """phks_db_query's top k as SQL (docs/postgres.md): the best max(k, 32)
     rows of table by <#> against q (a SQL expression), re-ranked by <~>,
     ties by id. Rows of (id, name, score)."""
     return ("SELECT id, name, sig <~> q AS score FROM "
             "(SELECT id, name, sig, q FROM %s, (SELECT %s AS q) AS query "
-            "ORDER BY sig <#> q, id LIMIT greatest(%d, 100)) AS shortlist "
+            "ORDER BY sig <#> q, id LIMIT greatest(%d, 32)) AS shortlist "
             "ORDER BY score, id LIMIT %d;" % (table, q, k, k))
 
 
@@ -300,7 +300,7 @@ BEGIN
               WHERE inhparent = 'shapes'::regclass LOOP
     parts := parts || format('(SELECT id, name, sig, sig <#> $1 AS nearest '
                              'FROM %s ORDER BY sig <#> $1, id '
-                             'LIMIT greatest($2, 100))', part);
+                             'LIMIT greatest($2, 32))', part);
   END LOOP;
   -- OFFSET 0 keeps the branches under a plain Append, which runs the
   -- shards at once with async_capable (a Merge Append would not).
@@ -308,6 +308,6 @@ BEGIN
     || '(SELECT * FROM (SELECT * FROM ('
     || array_to_string(parts, ' UNION ALL ')
     || ') AS u OFFSET 0) AS s ORDER BY nearest, id '
-    || 'LIMIT greatest($2, 100)) AS shortlist ORDER BY score, id LIMIT $2'
+    || 'LIMIT greatest($2, 32)) AS shortlist ORDER BY score, id LIMIT $2'
     USING q, k;
 END $$;"""

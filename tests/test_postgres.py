@@ -4,7 +4,7 @@
 The PostgreSQL extension (docs/postgres.md) on a throwaway cluster: the
 SQL top-k equals `phks db query --json` on the same entries (ids, names
 and scores exactly), in plain and in parallel plans: ORDER BY sig <~> q,
-id LIMIT k on a table of at most 100 rows, and the two-stage query (a
+id LIMIT k on a table of at most 32 rows, and the two-stage query (a
 shortlist by <#>, re-ranked by <~>) on a larger one; bad blobs and signatures made with other options give
 errors (naming the option), never a crash; text and binary I/O round trip;
 phks_signature_from_mesh equals the tool's signature byte for byte; the
@@ -38,8 +38,8 @@ def check(cond, what):
         print("FAIL: " + what)
 
 
-# More entries than phks_db_query's shortlist of 100 for the two-stage
-# query; the first 30 make the small table (at most 100 rows).
+# More entries than phks_db_query's shortlist of 32 for the two-stage
+# query; the first 30 make the small table (at most 32 rows).
 meshes, source = pgutil.test_meshes(shared, os.path.join(work, "meshes"),
                                     110)
 sigs = pgutil.signatures(phks, meshes, os.path.join(work, "sigs-" + source))
