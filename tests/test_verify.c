@@ -60,6 +60,43 @@ START_TEST(grid_distances_are_edge_paths)
 }
 END_TEST
 
+/* Merged into cells of 3 x 3 squares, a 60 x 60 grid keeps its distances
+ * within a few cells of the mesh's: every vertex's node distance from a
+ * corner against the exact edge path, in the unit box. */
+START_TEST(merged_cells_keep_distances)
+{
+    const size_t n = 60;
+    soup s = {0};
+    add_grid(&s, n, 0, 0);
+    phks_mesh *m = soup_mesh(&s);
+    phks__unit_mesh um;
+    ck_assert_int_eq(phks__unit_mesh_init(m, PHKS_BOX_AXIS_ALIGNED,
+                                          PHKS__SPAN_NONE, &um),
+                     PHKS_OK);
+    phks__geodesic_graph exact, merged;
+    double cell = 3 * um.scale;
+    ck_assert_int_eq(phks__geodesic_graph_build(&um, 0, 0, &exact), PHKS_OK);
+    ck_assert_int_eq(phks__geodesic_graph_build(&um, 0, cell, &merged), PHKS_OK);
+    ck_assert_uint_le(merged.n, (n / 3 + 2) * (n / 3 + 2));
+    ck_assert_uint_ge(merged.n, (n / 3) * (n / 3));
+    double *de = malloc(exact.n * sizeof *de), *dm = malloc(merged.n * sizeof *dm);
+    ck_assert_int_eq(phks__geodesic_run(&exact, 0, NULL, 0, de), PHKS_OK);
+    ck_assert_int_eq(phks__geodesic_run(&merged, 0, NULL, 0, dm), PHKS_OK);
+    for (uint32_t v = 0; v < s.nv; v++) {
+        double got = dm[phks__geodesic_node(&merged, v)];
+        REQUIRE_MSG(fabs(got - de[v]) <= 4 * cell, "vertex %u: %g against %g",
+                    v, got, de[v]);
+    }
+    free(de);
+    free(dm);
+    phks__geodesic_graph_release(&exact);
+    phks__geodesic_graph_release(&merged);
+    phks__unit_mesh_release(&um);
+    phks_mesh_free(m);
+    soup_free(&s);
+}
+END_TEST
+
 /* Two grids side by side with a gap: joined when the gap is within the
  * operator's reach (cutoff sqrt(4 tau) in the unit box), by the arc
  * between the facing edges' vertices; never otherwise. */
@@ -502,6 +539,7 @@ int main(void)
     tcase_set_timeout(c, 600);
     tcase_add_test(c, grid_distances_are_edge_paths);
     tcase_add_test(c, pieces_join_within_reach);
+    tcase_add_test(c, merged_cells_keep_distances);
     tcase_add_test(c, signature_keeps_feature_distances);
     tcase_add_test(c, bend_keeps_correspondences);
     tcase_add_test(c, parts_verify_right_pairs);

@@ -72,8 +72,16 @@ phks_status phks__signature_layout(const phks__unit_mesh *um,
         sig->boundary[i] = boundary_distance(um, sig->vertex[i]);
     if (points < 2)
         return PHKS_OK;
+    /* A mesh on the HKS-simp path gets a graph of about as many nodes as
+     * HKS-simp has samples: 35 searches over millions of vertices would
+     * cost more than the signature (docs/benchmarks.md). */
+    double cell = 0;
+    const phks_mesh *m = um->mesh;
+    if (opt->simplify_above && m->vertex_count > opt->simplify_above &&
+        m->vertex_count > opt->simplify_target)
+        cell = sqrt(m->area * um->scale * um->scale / opt->simplify_target);
     phks__geodesic_graph graph;
-    st = phks__geodesic_graph_build(um, opt->cutoff * sqrt(4 * opt->tau),
+    st = phks__geodesic_graph_build(um, opt->cutoff * sqrt(4 * opt->tau), cell,
                                     &graph);
     if (st != PHKS_OK)
         return st;
@@ -85,7 +93,8 @@ phks_status phks__signature_layout(const phks__unit_mesh *um,
     for (size_t j = 1; st == PHKS_OK && j < points; j++) {
         st = phks__geodesic_run(&graph, sig->vertex[j], sig->vertex, j, d);
         for (size_t i = 0; st == PHKS_OK && i < j; i++)
-            sig->geodesic[phks__pair_index(i, j)] = (float)d[sig->vertex[i]];
+            sig->geodesic[phks__pair_index(i, j)] =
+                (float)d[phks__geodesic_node(&graph, sig->vertex[i])];
     }
     phks__free(d);
     phks__geodesic_graph_release(&graph);

@@ -62,10 +62,17 @@ static double edge_length(const phks__unit_mesh *um, uint32_t a, uint32_t b)
     return sqrt(d2) * um->scale;
 }
 
-/* Appends the arc a -> b, counting when `next` is NULL. */
+/* Appends the arc a -> b between the nodes of vertices a and b, counting
+ * when `next` is NULL; none inside a node. */
 static void add_arc(phks__geodesic_graph *g, size_t *fill, uint32_t a,
                     uint32_t b, double length)
 {
+    if (g->node_of) {
+        a = g->node_of[a];
+        b = g->node_of[b];
+        if (a == b)
+            return;
+    }
     if (!g->next) {
         g->offset[a + 1]++;
         return;
@@ -75,6 +82,21 @@ static void add_arc(phks__geodesic_graph *g, size_t *fill, uint32_t a,
     g->length[at] = length;
 }
 
+/* The length of the arc between the nodes of vertices a and b: the
+ * distance of the vertices, or of the nodes' centres. */
+static double arc_length(const phks__unit_mesh *um,
+                         const phks__geodesic_graph *g, uint32_t a, uint32_t b)
+{
+    if (!g->node_of)
+        return edge_length(um, a, b);
+    const double *p = g->centre + 3 * (size_t)g->node_of[a];
+    const double *q = g->centre + 3 * (size_t)g->node_of[b];
+    double d2 = 0;
+    for (int d = 0; d < 3; d++)
+        d2 += (p[d] - q[d]) * (p[d] - q[d]);
+    return sqrt(d2);
+}
+
 static void add_arcs(const phks__unit_mesh *um, const uint32_t *bridge,
                      const double *bridge_length, phks__geodesic_graph *g,
                      size_t *fill)
@@ -82,7 +104,7 @@ static void add_arcs(const phks__unit_mesh *um, const uint32_t *bridge,
     const phks_mesh *m = um->mesh;
     for (size_t e = 0; e < m->edge_count; e++) {
         uint32_t a = m->edge_vertices[2 * e], b = m->edge_vertices[2 * e + 1];
-        double len = g->next ? edge_length(um, a, b) : 0;
+        double len = g->next ? arc_length(um, g, a, b) : 0;
         add_arc(g, fill, a, b, len);
         add_arc(g, fill, b, a, len);
     }
@@ -95,26 +117,69 @@ static void add_arcs(const phks__unit_mesh *um, const uint32_t *bridge,
 
 void phks__geodesic_graph_release(phks__geodesic_graph *g)
 {
+    phks__free(g->node_of);
+    phks__free(g->centre);
     phks__free(g->offset);
     phks__free(g->next);
     phks__free(g->length);
     memset(g, 0, sizeof *g);
 }
 
-phks_status phks__geodesic_graph_build(const phks__unit_mesh *um, double reach,
-                                       phks__geodesic_graph *g)
+/* One node per occupied cell of a grid of the given size, at the mean of
+ * its vertices (unit box). */
+static phks_status cluster(const phks__unit_mesh *um, double cell,
+                           phks__geodesic_graph *g)
 {
     const phks_mesh *m = um->mesh;
-    size_t n = m->vertex_count;
+    phks__grid grid;
+    phks_status st = phks__grid_build(m->xyz, m->vertex_count, um->scale,
+                                      cell, &grid);
+    if (st != PHKS_OK)
+        return st;
+    size_t cells = grid.dims[0] * grid.dims[1] * grid.dims[2];
+    g->node_of = phks__malloc_array(m->vertex_count, sizeof *g->node_of);
+    g->centre = phks__calloc(m->vertex_count, 3 * sizeof *g->centre);
+    if (!g->node_of || !g->centre) {
+        phks__grid_release(&grid);
+        return phks__fail_oom("geodesic graph");
+    }
+    g->n = 0;
+    for (size_t c = 0; c < cells; c++) {
+        size_t first = grid.cell_start[c], last = grid.cell_start[c + 1];
+        if (first == last)
+            continue;
+        double *centre = g->centre + 3 * g->n;
+        for (size_t k = first; k < last; k++) {
+            uint32_t v = grid.points[k];
+            g->node_of[v] = (uint32_t)g->n;
+            for (int d = 0; d < 3; d++)
+                centre[d] += m->xyz[3 * (size_t)v + d] * um->scale /
+                             (double)(last - first);
+        }
+        g->n++;
+    }
+    phks__grid_release(&grid);
+    return PHKS_OK;
+}
+
+phks_status phks__geodesic_graph_build(const phks__unit_mesh *um, double reach,
+                                       double cell, phks__geodesic_graph *g)
+{
+    const phks_mesh *m = um->mesh;
     memset(g, 0, sizeof *g);
-    g->n = n;
+    g->n = m->vertex_count;
+    phks_status st = cell > 0 ? cluster(um, cell, g) : PHKS_OK;
+    if (st != PHKS_OK) {
+        phks__geodesic_graph_release(g);
+        return st;
+    }
+    size_t n = g->n, nv = m->vertex_count;
     uint32_t *bridge = NULL;
     double *bridge_length = NULL;
     size_t *fill = NULL;
-    phks_status st = PHKS_OK;
     if (m->component_count > 1 && reach > 0) {
-        bridge = phks__malloc_array(n, sizeof *bridge);
-        bridge_length = phks__malloc_array(n, sizeof *bridge_length);
+        bridge = phks__malloc_array(nv, sizeof *bridge);
+        bridge_length = phks__malloc_array(nv, sizeof *bridge_length);
         st = bridge && bridge_length
                  ? find_bridges(um, reach, bridge, bridge_length)
                  : phks__fail_oom("geodesic bridges");
@@ -180,10 +245,16 @@ static heap_entry heap_pop(heap_entry *h, size_t *n)
     return top;
 }
 
+uint32_t phks__geodesic_node(const phks__geodesic_graph *g, uint32_t vertex)
+{
+    return g->node_of ? g->node_of[vertex] : vertex;
+}
+
 phks_status phks__geodesic_run(const phks__geodesic_graph *g, uint32_t source,
                                const uint32_t *targets, size_t target_count,
                                double *distance)
 {
+    source = phks__geodesic_node(g, source);
     size_t n = g->n;
     heap_entry *heap = phks__malloc_array(g->offset[n] + 1, sizeof *heap);
     unsigned char *done = phks__calloc(n, 1);
@@ -197,11 +268,13 @@ phks_status phks__geodesic_run(const phks__geodesic_graph *g, uint32_t source,
     size_t left = n;
     if (targets) {
         left = 0;
-        for (size_t i = 0; i < target_count; i++)
-            if (!wanted[targets[i]]) {
-                wanted[targets[i]] = 1;
+        for (size_t i = 0; i < target_count; i++) {
+            uint32_t t = phks__geodesic_node(g, targets[i]);
+            if (!wanted[t]) {
+                wanted[t] = 1;
                 left++;
             }
+        }
     }
     for (size_t v = 0; v < n; v++)
         distance[v] = INFINITY;
@@ -250,7 +323,8 @@ phks_status phks_mesh_geodesic_distances(const phks_mesh *mesh,
     if (st != PHKS_OK)
         return st;
     phks__geodesic_graph graph;
-    st = phks__geodesic_graph_build(&um, opt.cutoff * sqrt(4 * opt.tau), &graph);
+    st = phks__geodesic_graph_build(&um, opt.cutoff * sqrt(4 * opt.tau), 0,
+                                    &graph);
     if (st == PHKS_OK)
         st = phks__geodesic_run(&graph, source, NULL, 0, distance);
     for (size_t v = 0; st == PHKS_OK && v < mesh->vertex_count; v++)

@@ -141,21 +141,32 @@ size_t phks__grid_neighbourhood(const phks__grid *grid, const size_t c[3],
 /* The mesh's edges as arcs both ways, lengths in the unit box, plus, on a
  * mesh of several pieces, an arc both ways from each vertex to the
  * nearest vertex of another piece within straight-line distance `reach`
- * (none when reach is 0). */
+ * (none when reach is 0). With cell > 0 the vertices are first merged
+ * into one node per occupied cell of a grid of about that size (unit
+ * box), at their mean, and an arc joins two nodes where an edge or a
+ * bridge joins their vertices: a mesh of millions of vertices gets a
+ * graph of about its area over cell^2 nodes, whose paths differ from the
+ * mesh's by about a cell per step. */
 typedef struct phks__geodesic_graph {
-    size_t n;          /* vertices                                   */
+    size_t n;          /* nodes                                      */
+    uint32_t *node_of; /* per vertex; NULL: nodes are the vertices   */
+    double *centre;    /* 3 per node with node_of                    */
     size_t *offset;    /* n + 1 offsets into next and length         */
     uint32_t *next;
     double *length;
 } phks__geodesic_graph;
 
 phks_status phks__geodesic_graph_build(const phks__unit_mesh *um, double reach,
+                                       double cell,
                                        phks__geodesic_graph *graph);
 void phks__geodesic_graph_release(phks__geodesic_graph *graph);
-/* Shortest-path distances from `source` into distance (n entries;
- * INFINITY where unreachable). With targets (target_count vertices) the
- * search stops once all of them are settled, and only their distances
- * are final; with targets NULL every vertex's is. */
+/* The node of a vertex. */
+uint32_t phks__geodesic_node(const phks__geodesic_graph *graph,
+                             uint32_t vertex);
+/* Shortest-path distances from the node of vertex `source` into distance
+ * (one per node; INFINITY where unreachable). With targets (target_count
+ * vertices) the search stops once their nodes are settled, and only
+ * their distances are final; with targets NULL every node's is. */
 phks_status phks__geodesic_run(const phks__geodesic_graph *graph,
                                uint32_t source, const uint32_t *targets,
                                size_t target_count, double *distance);
