@@ -241,17 +241,28 @@ def test_meshes(shared, workdir, count):
     return paths, "generated"
 
 
+def built_at(phks):
+    """When the tool or the library it loads (build/lib) was last built:
+    a cached signature older than that may hold another version's
+    numbers."""
+    lib = glob.glob(os.path.join(os.path.dirname(os.path.abspath(phks)),
+                                 "..", "..", "lib", "libphks.so*"))
+    return max(os.path.getmtime(p) for p in [phks] + lib)
+
+
 def signatures(phks, meshes, cache, extra_args=()):
     """The tool's signature blob of each mesh (phks signature MESH -o X),
-    cached in cache/ under the mesh's base name. Returns the .sig paths."""
+    cached in cache/ under the mesh's base name, made again when the tool
+    or its library is newer. Returns the .sig paths."""
     os.makedirs(cache, exist_ok=True)
     tag = "-".join(a.strip("-") for a in extra_args)
+    newest = built_at(phks)
     out = []
     for m in meshes:
         base = os.path.basename(m).split(".")[0]
         sig = os.path.join(cache, base + (("-" + tag) if tag else "") +
                            ".sig")
-        if not os.path.exists(sig):
+        if not os.path.exists(sig) or os.path.getmtime(sig) < newest:
             r = subprocess.run([phks] + list(extra_args) +
                                ["signature", m, "-o", sig + ".tmp"],
                                capture_output=True, text=True,
