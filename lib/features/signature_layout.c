@@ -11,15 +11,6 @@
 
 #include <math.h>
 
-static double distance2(const phks__unit_mesh *um, size_t v, size_t w)
-{
-    const double *p = um->mesh->xyz + 3 * v, *q = um->mesh->xyz + 3 * w;
-    double d2 = 0;
-    for (int k = 0; k < 3; k++)
-        d2 += (p[k] - q[k]) * (p[k] - q[k]);
-    return d2 * um->scale * um->scale;
-}
-
 phks_status phks__spread_vertices(const phks__unit_mesh *um,
                                   const uint32_t *given, size_t given_count,
                                   size_t wanted, uint32_t *out, size_t *picked)
@@ -32,7 +23,7 @@ phks_status phks__spread_vertices(const phks__unit_mesh *um,
     for (size_t v = 0; v < n; v++) {
         nearest[v] = INFINITY;
         for (size_t g = 0; g < given_count; g++)
-            nearest[v] = fmin(nearest[v], distance2(um, v, given[g]));
+            nearest[v] = fmin(nearest[v], phks__unit_distance2(um, v, given[g]));
     }
     while (*picked < wanted) {
         size_t far = 0;
@@ -43,7 +34,7 @@ phks_status phks__spread_vertices(const phks__unit_mesh *um,
             break;
         out[(*picked)++] = (uint32_t)far;
         for (size_t v = 0; v < n; v++)
-            nearest[v] = fmin(nearest[v], distance2(um, v, far));
+            nearest[v] = fmin(nearest[v], phks__unit_distance2(um, v, far));
     }
     phks__free(nearest);
     return PHKS_OK;
@@ -56,7 +47,7 @@ static float boundary_distance(const phks__unit_mesh *um, uint32_t v)
     const phks_mesh *m = um->mesh;
     double best = INFINITY;
     for (size_t e = 0; e < 2 * m->boundary_edge_count; e++)
-        best = fmin(best, distance2(um, v, m->boundary_edges[e]));
+        best = fmin(best, phks__unit_distance2(um, v, m->boundary_edges[e]));
     return (float)sqrt(best);
 }
 

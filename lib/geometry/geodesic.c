@@ -53,15 +53,6 @@ static phks_status find_bridges(const phks__unit_mesh *um, double reach,
     return PHKS_OK;
 }
 
-static double edge_length(const phks__unit_mesh *um, uint32_t a, uint32_t b)
-{
-    const double *p = um->mesh->xyz + 3 * (size_t)a, *q = um->mesh->xyz + 3 * (size_t)b;
-    double d2 = 0;
-    for (int d = 0; d < 3; d++)
-        d2 += (p[d] - q[d]) * (p[d] - q[d]);
-    return sqrt(d2) * um->scale;
-}
-
 /* Appends the arc a -> b between the nodes of vertices a and b, counting
  * when `next` is NULL; none inside a node. */
 static void add_arc(phks__geodesic_graph *g, size_t *fill, uint32_t a,
@@ -88,7 +79,7 @@ static double arc_length(const phks__unit_mesh *um,
                          const phks__geodesic_graph *g, uint32_t a, uint32_t b)
 {
     if (!g->node_of)
-        return edge_length(um, a, b);
+        return sqrt(phks__unit_distance2(um, a, b));
     const double *p = g->centre + 3 * (size_t)g->node_of[a];
     const double *q = g->centre + 3 * (size_t)g->node_of[b];
     double d2 = 0;

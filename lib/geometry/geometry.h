@@ -71,6 +71,17 @@ typedef struct phks__unit_mesh {
     double *area;
 } phks__unit_mesh;
 
+/* Squared straight-line distance of vertices v and w in the unit box. */
+static inline double phks__unit_distance2(const phks__unit_mesh *um, size_t v,
+                                          size_t w)
+{
+    const double *p = um->mesh->xyz + 3 * v, *q = um->mesh->xyz + 3 * w;
+    double d2 = 0;
+    for (int k = 0; k < 3; k++)
+        d2 += (p[k] - q[k]) * (p[k] - q[k]);
+    return d2 * um->scale * um->scale;
+}
+
 /* The box's scale in the first two thirds of `at`, the areas in the last
  * third. On failure nothing is left to release. */
 phks_status phks__unit_mesh_init(const phks_mesh *mesh, phks_box box,
