@@ -22,7 +22,15 @@ static void check_sane(const phks_signature *sig)
     FUZZ_CHECK(count >= 1);
     FUZZ_CHECK(length >= 1 && length <= PHKS_MAX_SCALES);
     FUZZ_CHECK(length == sig->options.scale_count);
-    for (size_t i = 0; i < count; i++) {
+    /* The samples of a verified signature follow the features. */
+    size_t points = count + phks_signature_sample_count(sig);
+    FUZZ_CHECK(points == count ||
+               sig->options.matching == PHKS_MATCHING_VERIFIED);
+    for (size_t i = 0; i < points; i++) {
+        if (sig->boundary)
+            FUZZ_CHECK(sig->boundary[i] >= 0);
+        for (size_t j = 0; sig->geodesic && j < i; j++)
+            FUZZ_CHECK(sig->geodesic[phks__pair_index(j, i)] >= 0);
         double xyz[3];
         FUZZ_CHECK(phks_signature_feature_position(sig, i, xyz) == PHKS_OK);
         for (int d = 0; d < 3; d++)
@@ -34,12 +42,14 @@ static void check_sane(const phks_signature *sig)
         for (size_t s = 0; s < length; s++)
             FUZZ_CHECK(isfinite(v[s]));
     }
-    FUZZ_CHECK(phks_signature_feature_vector(sig, count) == NULL);
+    FUZZ_CHECK(phks_signature_feature_vector(sig, points) == NULL);
 }
 
 static void check_same(const phks_signature *a, const phks_signature *b)
 {
-    FUZZ_CHECK(a->count == b->count && a->length == b->length);
+    FUZZ_CHECK(a->count == b->count && a->length == b->length &&
+               a->samples == b->samples);
+    size_t points = phks__signature_points(a);
     const phks_options *x = &a->options, *y = &b->options;
     FUZZ_CHECK(same_bits(&x->tau, &y->tau, sizeof x->tau));
     FUZZ_CHECK(same_bits(&x->cutoff, &y->cutoff, sizeof x->cutoff));
@@ -55,13 +65,20 @@ static void check_same(const phks_signature *a, const phks_signature *b)
                          sizeof x->boundary_margin));
     FUZZ_CHECK(x->hks_scaling == y->hks_scaling);
     FUZZ_CHECK(phks__options_comparable(x, y));
-    FUZZ_CHECK(same_bits(a->vertex, b->vertex, a->count * sizeof *a->vertex));
+    FUZZ_CHECK(same_bits(a->vertex, b->vertex, points * sizeof *a->vertex));
     FUZZ_CHECK(same_bits(a->position, b->position,
-                         3 * a->count * sizeof *a->position));
+                         3 * points * sizeof *a->position));
     FUZZ_CHECK(same_bits(a->persistence, b->persistence,
-                         a->count * sizeof *a->persistence));
+                         points * sizeof *a->persistence));
     FUZZ_CHECK(same_bits(a->vectors, b->vectors,
-                         a->count * a->length * sizeof *a->vectors));
+                         points * a->length * sizeof *a->vectors));
+    FUZZ_CHECK((a->geodesic == NULL) == (b->geodesic == NULL));
+    if (a->geodesic) {
+        FUZZ_CHECK(same_bits(a->geodesic, b->geodesic,
+                             phks__pair_count(points) * sizeof *a->geodesic));
+        FUZZ_CHECK(same_bits(a->boundary, b->boundary,
+                             points * sizeof *a->boundary));
+    }
     double score = -1;
     FUZZ_CHECK(phks_score(a, b, &score) == PHKS_OK && score == 0);
 }
@@ -105,7 +122,9 @@ static void decode_and_round_trip(const uint8_t *data, size_t size)
     /* The format number is bytes 4-5; encode writes the current one. */
     unsigned format = (unsigned)data[4] | (unsigned)data[5] << 8;
     unsigned current = (unsigned)blob1[4] | (unsigned)blob1[5] << 8;
-    FUZZ_CHECK(format >= 1 && format <= current);
+    /* A newer format holding only older options is read, and written
+     * back in the oldest format that holds them. */
+    FUZZ_CHECK(format >= 1 && format <= 4 && current <= 4);
     if (format == current)
         FUZZ_CHECK(n1 == size && memcmp(blob1, data, size) == 0);
     else /* an older blob gains the newer fields */
