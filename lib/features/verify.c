@@ -79,6 +79,7 @@ typedef struct verify_ctx {
     double scale;      /* of the set being read                           */
 } verify_ctx;
 
+/* The distance of points i != j. */
 static double geodesic(const phks_signature *s, size_t i, size_t j)
 {
     return i < j ? s->geodesic[phks__pair_index(i, j)]
@@ -268,7 +269,8 @@ static double select_set(verify_ctx *c, uint32_t *pair_of)
         for (size_t k = 0; k < taken && !clash; k++) {
             const proposal *y = c->p + c->set[k];
             clash = x->i == y->i || x->j == y->j;
-            with += pair_weight(c, x, y);
+            if (!clash)
+                with += pair_weight(c, x, y);
         }
         if (clash || (taken && with / (double)taken <
                                    AGREEMENT * x->root * c->p[c->set[0]].root))
