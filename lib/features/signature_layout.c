@@ -11,6 +11,15 @@
 
 #include <math.h>
 
+/* nearest[v]: the squared distance from v to the nearest chosen vertex,
+ * now that `chosen` is one. */
+static void move_away(const phks__unit_mesh *um, uint32_t chosen,
+                      double *nearest)
+{
+    for (size_t v = 0; v < um->mesh->vertex_count; v++)
+        nearest[v] = fmin(nearest[v], phks__unit_distance2(um, v, chosen));
+}
+
 phks_status phks__spread_vertices(const phks__unit_mesh *um,
                                   const uint32_t *given, size_t given_count,
                                   size_t wanted, uint32_t *out, size_t *picked)
@@ -20,11 +29,10 @@ phks_status phks__spread_vertices(const phks__unit_mesh *um,
     *picked = 0;
     if (!nearest)
         return phks__fail_oom("spread samples");
-    for (size_t v = 0; v < n; v++) {
+    for (size_t v = 0; v < n; v++)
         nearest[v] = INFINITY;
-        for (size_t g = 0; g < given_count; g++)
-            nearest[v] = fmin(nearest[v], phks__unit_distance2(um, v, given[g]));
-    }
+    for (size_t g = 0; g < given_count; g++)
+        move_away(um, given[g], nearest);
     while (*picked < wanted) {
         size_t far = 0;
         for (size_t v = 1; v < n; v++)
@@ -33,8 +41,7 @@ phks_status phks__spread_vertices(const phks__unit_mesh *um,
         if (!(nearest[far] > 0))
             break;
         out[(*picked)++] = (uint32_t)far;
-        for (size_t v = 0; v < n; v++)
-            nearest[v] = fmin(nearest[v], phks__unit_distance2(um, v, far));
+        move_away(um, (uint32_t)far, nearest);
     }
     phks__free(nearest);
     return PHKS_OK;

@@ -76,6 +76,7 @@ typedef struct verify_ctx {
     size_t pair_count;
     double *x, *y;
     size_t *set;
+    uint32_t *trial;   /* the set of the scale being tried, per feature   */
     double scale;      /* of the set being read                           */
 } verify_ctx;
 
@@ -198,8 +199,19 @@ static double agreement(const verify_ctx *c, double ga, double gb)
     return fabs(e) < 3 ? exp(-e * e) : 0;
 }
 
+/* The matrix entry of two proposals that share no point, at c->scale;
+ * the verified set's members are few, and select_set computes theirs
+ * again rather than search the sparse matrix. */
+static double pair_weight(const verify_ctx *c, const proposal *x,
+                          const proposal *y)
+{
+    return agreement(c, geodesic(c->a, x->i, y->i),
+                     c->scale * geodesic(c->b, x->j, y->j)) *
+           x->root * y->root;
+}
+
 /* The affinity matrix, kept sparse: most pairs of proposals disagree. */
-static void affinities(verify_ctx *c, double scale)
+static void affinities(verify_ctx *c)
 {
     size_t n = c->count;
     c->pair_count = 0;
@@ -208,11 +220,10 @@ static void affinities(verify_ctx *c, double scale)
             const proposal *x = c->p + p, *y = c->p + q;
             if (x->i == y->i || x->j == y->j || !(x->root * y->root > 0))
                 continue;
-            double w = agreement(c, geodesic(c->a, x->i, y->i),
-                                 scale * geodesic(c->b, x->j, y->j));
+            double w = pair_weight(c, x, y);
             if (w > 0)
                 c->pairs[c->pair_count++] =
-                    (pair_entry){(uint32_t)p, (uint32_t)q, w * x->root * y->root};
+                    (pair_entry){(uint32_t)p, (uint32_t)q, w};
         }
 }
 
@@ -238,15 +249,6 @@ static void leading_vector(verify_ctx *c)
         for (size_t p = 0; p < n; p++)
             c->x[p] = c->y[p] / norm;
     }
-}
-
-/* The matrix entry of two proposals, computed again: the set is small. */
-static double pair_weight(const verify_ctx *c, const proposal *x,
-                          const proposal *y)
-{
-    return agreement(c, geodesic(c->a, x->i, y->i),
-                     c->scale * geodesic(c->b, x->j, y->j)) *
-           x->root * y->root;
 }
 
 /* Reads the eigenvector greedily into a one-to-one set and returns its
@@ -295,7 +297,7 @@ static double try_scale(verify_ctx *c, double scale, uint32_t *pair_of)
     c->scale = scale;
     distances(c, vb);
     propose(c);
-    affinities(c, scale);
+    affinities(c);
     leading_vector(c);
     for (size_t i = 0; i < c->na; i++)
         pair_of[i] = UINT32_MAX;
@@ -305,7 +307,8 @@ static double try_scale(verify_ctx *c, double scale, uint32_t *pair_of)
 static void release(verify_ctx *c)
 {
     void *owned[] = {c->va, c->vb, c->wa, c->wb, c->vb_shift, c->dist,
-                     c->trust, c->p, c->pairs, c->x, c->y, c->set};
+                     c->trust, c->p, c->pairs, c->x, c->y, c->set,
+                     c->trial};
     for (size_t k = 0; k < sizeof owned / sizeof owned[0]; k++)
         phks__free(owned[k]);
 }
@@ -326,8 +329,9 @@ static phks_status allocate(verify_ctx *c)
     c->x = phks__malloc_array(most, sizeof *c->x);
     c->y = phks__malloc_array(most, sizeof *c->y);
     c->set = phks__malloc_array(most, sizeof *c->set);
+    c->trial = phks__malloc_array(na + 1, sizeof *c->trial);
     if (c->va && c->vb && c->wa && c->wb && c->vb_shift && c->dist &&
-        c->trust && c->p && c->pairs && c->x && c->y && c->set)
+        c->trust && c->p && c->pairs && c->x && c->y && c->set && c->trial)
         return PHKS_OK;
     release(c);
     return phks__fail_oom("verified matching");
@@ -345,31 +349,23 @@ phks_status phks__verify(const phks_signature *a, const phks_signature *b,
     c.sigma = VECTOR_SIGMA * (double)c.length;
     c.slack = sqrt(4 * a->options.feature_scale * a->options.tau);
     phks_status st = allocate(&c);
-    uint32_t *trial = phks__malloc_array(c.na + 1, sizeof *trial);
-    if (st == PHKS_OK && !trial) {
-        release(&c);
-        st = phks__fail_oom("verified matching");
-    }
-    if (st != PHKS_OK) {
-        phks__free(trial);
+    if (st != PHKS_OK)
         return st;
-    }
     compared_vectors(a, c.na, c.va);
     compared_vectors(b, c.nb, c.vb);
     boundary_weights(a, c.na, c.wa);
     boundary_weights(b, c.nb, c.wb);
     double best = 0;
     for (int k = -SCALE_STEPS; k <= SCALE_STEPS; k++) {
-        double e = try_scale(&c, exp2(k / 4.0), trial);
+        double e = try_scale(&c, exp2(k / 4.0), c.trial);
         if (e > best || k == -SCALE_STEPS) {
             best = e;
             if (pair_of)
-                memcpy(pair_of, trial, c.na * sizeof *pair_of);
+                memcpy(pair_of, c.trial, c.na * sizeof *pair_of);
         }
     }
     double n = (double)c.na;
     *score = nearest * (1 - fmin(best / (n * n), 1));
-    phks__free(trial);
     release(&c);
     return PHKS_OK;
 }
