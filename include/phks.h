@@ -700,6 +700,23 @@ PHKS_API phks_status phks_score_nearest(const phks_signature *a,
                                         const phks_signature *b,
                                         double *score);
 
+/* The same score of two sets of vectors given as plain arrays: a holds
+ * a_count vectors and b b_count, each `length` doubles, one after the
+ * other (the layout phks_signature_feature_vector returns them in). For
+ * hosts that keep the vectors apart from the signatures, such as the
+ * compact shortlist keys of the PostgreSQL extension: bit for bit
+ * phks_score_nearest of the signatures the vectors came from, but the
+ * caller, not the library, must check that they were made with the same
+ * options. Nothing is allocated.
+ *
+ * Errors: PHKS_ERROR_INVALID_ARGUMENT (NULL pointer, a count or length of
+ * 0, an entry that is not finite). Thread-safe. */
+PHKS_API phks_status phks_score_nearest_vectors(const double *a,
+                                                size_t a_count,
+                                                const double *b,
+                                                size_t b_count, size_t length,
+                                                double *score);
+
 typedef struct phks_correspondence {
     uint32_t feature_a;  /* index of a feature of a                         */
     uint32_t feature_b;  /* index of a feature of b                         */

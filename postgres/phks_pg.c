@@ -22,7 +22,7 @@
 #include "utils/builtins.h"
 #include "utils/memutils.h"
 
-#include "phks.h"
+#include "phks_pg.h"
 
 PG_MODULE_MAGIC;
 
@@ -71,9 +71,7 @@ static int pg_errcode_of(phks_status st)
     }
 }
 
-/* The library's message for the last failure, copied into palloc'd memory
- * (call it before freeing handles: a later failing call replaces it). */
-static char *last_message(phks_status st)
+char *phks_pg_last_message(phks_status st)
 {
     const char *msg = phks_last_error_message();
     if (!msg || !*msg)
@@ -81,27 +79,21 @@ static char *last_message(phks_status st)
     return pstrdup(msg);
 }
 
-/* Raises the error of status st with the message copied by last_message.
- * Call it only once every library handle is freed. */
-static void pg_noreturn_error(phks_status st, const char *what, char *msg)
-    pg_attribute_noreturn();
-static void pg_noreturn_error(phks_status st, const char *what, char *msg)
+void phks_pg_error(phks_status st, const char *what, char *msg)
 {
     ereport(ERROR, (errcode(pg_errcode_of(st)),
                     errmsg("%s: %s", what, msg)));
     pg_unreachable();
 }
 
-/* Decodes a blob into a new library handle, or raises the decode error
- * (nothing to free then: decode leaves *sig NULL on failure). */
-static phks_signature *decode_or_error(const void *data, size_t size,
+phks_signature *phks_pg_decode(const void *data, size_t size,
                                        const char *what)
 {
     phks_signature *sig = NULL;
     phks_status st = phks_signature_decode(data, size, &sig);
     if (st != PHKS_OK) {
-        char *msg = last_message(st);
-        pg_noreturn_error(st, what, msg);
+        char *msg = phks_pg_last_message(st);
+        phks_pg_error(st, what, msg);
     }
     return sig;
 }
@@ -115,10 +107,10 @@ static bytea *encode_and_free(phks_signature *sig, const char *what)
     size_t written = 0;
     phks_status st = phks_signature_encode(sig, VARDATA(out), size, &written);
     if (st != PHKS_OK || written != size) {
-        char *msg = st != PHKS_OK ? last_message(st)
+        char *msg = st != PHKS_OK ? phks_pg_last_message(st)
                                   : pstrdup("encoded size changed");
         phks_signature_free(sig);
-        pg_noreturn_error(st != PHKS_OK ? st : PHKS_ERROR_CORRUPT, what, msg);
+        phks_pg_error(st != PHKS_OK ? st : PHKS_ERROR_CORRUPT, what, msg);
     }
     phks_signature_free(sig);
     SET_VARSIZE(out, VARHDRSZ + size);
@@ -128,7 +120,7 @@ static bytea *encode_and_free(phks_signature *sig, const char *what)
 /* Validates raw bytes as a blob and returns them as a new varlena. */
 static bytea *validated_copy(const char *data, size_t size, const char *what)
 {
-    phks_signature *sig = decode_or_error(data, size, what);
+    phks_signature *sig = phks_pg_decode(data, size, what);
     phks_signature_free(sig);
     bytea *out = (bytea *)palloc(VARHDRSZ + size);
     memcpy(VARDATA(out), data, size);
@@ -140,17 +132,15 @@ static bytea *validated_copy(const char *data, size_t size, const char *what)
  * Type I/O: text is the hex of the blob (an optional \x prefix is
  * accepted on input, as for bytea); binary is the blob itself.
  * ------------------------------------------------------------------- */
-PG_FUNCTION_INFO_V1(phks_signature_in);
-Datum phks_signature_in(PG_FUNCTION_ARGS)
+char *phks_pg_hex_decode(const char *text, const char *type, size_t *size)
 {
-    const char *text = PG_GETARG_CSTRING(0);
     if (text[0] == '\\' && (text[1] == 'x' || text[1] == 'X'))
         text += 2;
     size_t len = strlen(text);
     if (len % 2 != 0)
         ereport(ERROR, (errcode(ERRCODE_INVALID_TEXT_REPRESENTATION),
-                        errmsg("invalid input syntax for type phks_signature: "
-                               "odd number of hex digits")));
+                        errmsg("invalid input syntax for type %s: "
+                               "odd number of hex digits", type)));
     char *raw = palloc(len / 2 + 1);
     for (size_t i = 0; i < len / 2; i++) {
         int v = 0;
@@ -166,14 +156,35 @@ Datum phks_signature_in(PG_FUNCTION_ARGS)
             else
                 ereport(ERROR,
                         (errcode(ERRCODE_INVALID_TEXT_REPRESENTATION),
-                         errmsg("invalid input syntax for type "
-                                "phks_signature: \"%c\" is not a hex digit",
-                                c)));
+                         errmsg("invalid input syntax for type %s: \"%c\" "
+                                "is not a hex digit", type, c)));
             v = v * 16 + d;
         }
         raw[i] = (char)v;
     }
-    bytea *out = validated_copy(raw, len / 2, "phks_signature");
+    *size = len / 2;
+    return raw;
+}
+
+char *phks_pg_hex_encode(const void *data, size_t size)
+{
+    const unsigned char *p = data;
+    static const char digits[] = "0123456789abcdef";
+    char *out = palloc(2 * size + 1);
+    for (size_t i = 0; i < size; i++) {
+        out[2 * i] = digits[p[i] >> 4];
+        out[2 * i + 1] = digits[p[i] & 15];
+    }
+    out[2 * size] = '\0';
+    return out;
+}
+
+PG_FUNCTION_INFO_V1(phks_signature_in);
+Datum phks_signature_in(PG_FUNCTION_ARGS)
+{
+    size_t size;
+    char *raw = phks_pg_hex_decode(PG_GETARG_CSTRING(0), "phks_signature", &size);
+    bytea *out = validated_copy(raw, size, "phks_signature");
     pfree(raw);
     PG_RETURN_BYTEA_P(out);
 }
@@ -182,16 +193,7 @@ PG_FUNCTION_INFO_V1(phks_signature_out);
 Datum phks_signature_out(PG_FUNCTION_ARGS)
 {
     bytea *blob = PG_GETARG_BYTEA_PP(0);
-    const unsigned char *data = (const unsigned char *)VARDATA_ANY(blob);
-    size_t size = VARSIZE_ANY_EXHDR(blob);
-    static const char digits[] = "0123456789abcdef";
-    char *out = palloc(2 * size + 1);
-    for (size_t i = 0; i < size; i++) {
-        out[2 * i] = digits[data[i] >> 4];
-        out[2 * i + 1] = digits[data[i] & 15];
-    }
-    out[2 * size] = '\0';
-    PG_RETURN_CSTRING(out);
+    PG_RETURN_CSTRING(phks_pg_hex_encode(VARDATA_ANY(blob), VARSIZE_ANY_EXHDR(blob)));
 }
 
 PG_FUNCTION_INFO_V1(phks_signature_recv);
@@ -225,33 +227,26 @@ Datum phks_signature_from_bytea(PG_FUNCTION_ARGS)
  * ORDER BY sig <~> $1) is kept between calls of the same expression,
  * keyed by its bytes, and freed with the expression's memory context.
  * ------------------------------------------------------------------- */
-typedef struct score_cache {
-    size_t size;
-    char *blob;          /* in fn_mcxt */
-    phks_signature *sig; /* library handle, freed by the reset callback */
-    MemoryContextCallback cb;
-} score_cache;
-
-static void score_cache_free(void *arg)
+static void query_cache_free(void *arg)
 {
-    score_cache *cache = (score_cache *)arg;
+    query_cache *cache = (query_cache *)arg;
     phks_signature_free(cache->sig);
     cache->sig = NULL;
 }
 
-static const phks_signature *cached_signature(FunctionCallInfo fcinfo,
-                                              bytea *blob, const char *name)
+query_cache *phks_pg_cached_query(FunctionCallInfo fcinfo, bytea *blob,
+                          const char *name)
 {
-    score_cache *cache = (score_cache *)fcinfo->flinfo->fn_extra;
+    query_cache *cache = (query_cache *)fcinfo->flinfo->fn_extra;
     const char *data = VARDATA_ANY(blob);
     size_t size = VARSIZE_ANY_EXHDR(blob);
     if (cache && cache->sig && cache->size == size &&
         memcmp(cache->blob, data, size) == 0)
-        return cache->sig;
+        return cache;
     if (!cache) {
         cache = MemoryContextAllocZero(fcinfo->flinfo->fn_mcxt,
                                        sizeof *cache);
-        cache->cb.func = score_cache_free;
+        cache->cb.func = query_cache_free;
         cache->cb.arg = cache;
         MemoryContextRegisterResetCallback(fcinfo->flinfo->fn_mcxt,
                                            &cache->cb);
@@ -262,12 +257,15 @@ static const phks_signature *cached_signature(FunctionCallInfo fcinfo,
     if (cache->blob)
         pfree(cache->blob);
     cache->blob = NULL;
-    phks_signature *sig = decode_or_error(data, size, name);
+    if (cache->key)
+        pfree(cache->key);
+    cache->key = NULL;
+    phks_signature *sig = phks_pg_decode(data, size, name);
     cache->blob = MemoryContextAlloc(fcinfo->flinfo->fn_mcxt, size ? size : 1);
     memcpy(cache->blob, data, size);
     cache->size = size;
     cache->sig = sig;
-    return sig;
+    return cache;
 }
 
 typedef phks_status (*score_fn)(const phks_signature *,
@@ -286,9 +284,9 @@ static Datum score_args(FunctionCallInfo fcinfo, int query_first,
     phks_signature *own = NULL;
     const phks_signature *q;
     if (fcinfo->flinfo)
-        q = cached_signature(fcinfo, b_blob, name);
+        q = phks_pg_cached_query(fcinfo, b_blob, name)->sig;
     else
-        q = own = decode_or_error(VARDATA_ANY(b_blob),
+        q = own = phks_pg_decode(VARDATA_ANY(b_blob),
                                   VARSIZE_ANY_EXHDR(b_blob), name);
     phks_signature *e = NULL;
     phks_status st = phks_signature_decode(VARDATA_ANY(a_blob),
@@ -297,10 +295,10 @@ static Datum score_args(FunctionCallInfo fcinfo, int query_first,
     if (st == PHKS_OK)
         st = query_first ? fn(q, e, &score) : fn(e, q, &score);
     if (st != PHKS_OK) {
-        char *msg = last_message(st);
+        char *msg = phks_pg_last_message(st);
         phks_signature_free(e);
         phks_signature_free(own);
-        pg_noreturn_error(st, name, msg);
+        phks_pg_error(st, name, msg);
     }
     phks_signature_free(e);
     phks_signature_free(own);
@@ -346,7 +344,7 @@ static phks_signature *arg_signature(FunctionCallInfo fcinfo, int n,
                                      const char *what)
 {
     bytea *blob = PG_GETARG_BYTEA_PP(n);
-    return decode_or_error(VARDATA_ANY(blob), VARSIZE_ANY_EXHDR(blob), what);
+    return phks_pg_decode(VARDATA_ANY(blob), VARSIZE_ANY_EXHDR(blob), what);
 }
 
 PG_FUNCTION_INFO_V1(phks_pg_feature_count);
@@ -397,9 +395,9 @@ Datum phks_pg_options(PG_FUNCTION_ARGS)
     phks_options o;
     phks_status st = phks_signature_options(sig, &o);
     if (st != PHKS_OK) {
-        char *msg = last_message(st);
+        char *msg = phks_pg_last_message(st);
         phks_signature_free(sig);
-        pg_noreturn_error(st, "phks_options", msg);
+        phks_pg_error(st, "phks_options", msg);
     }
     phks_signature_free(sig);
     StringInfoData out;
@@ -470,8 +468,8 @@ Datum phks_pg_from_mesh(PG_FUNCTION_ARGS)
                                            VARSIZE_ANY_EXHDR(data), format,
                                            &mesh);
     if (st != PHKS_OK) {
-        char *msg = last_message(st);
-        pg_noreturn_error(st, "phks_signature_from_mesh", msg);
+        char *msg = phks_pg_last_message(st);
+        phks_pg_error(st, "phks_signature_from_mesh", msg);
     }
     phks_options options;
     phks_options_init(&options);
@@ -481,10 +479,10 @@ Datum phks_pg_from_mesh(PG_FUNCTION_ARGS)
     st = phks_signature_compute(mesh, &options, &sig);
     phks_mesh_free(mesh);
     if (st != PHKS_OK) {
-        char *msg = last_message(st);
+        char *msg = phks_pg_last_message(st);
         if (st == PHKS_ERROR_CANCELLED)
             CHECK_FOR_INTERRUPTS();
-        pg_noreturn_error(st, "phks_signature_from_mesh", msg);
+        phks_pg_error(st, "phks_signature_from_mesh", msg);
     }
     PG_RETURN_BYTEA_P(encode_and_free(sig, "phks_signature_from_mesh"));
 }

@@ -279,14 +279,15 @@ def hexfile(path):
         return f.read().hex()
 
 
-def two_stage(table, q, k):
+def two_stage(table, q, k, by="key"):
     """phks_db_query's top k as SQL (docs/postgres.md): the best max(k, 32)
-    rows of table by <#> against q (a SQL expression), re-ranked by <~>,
-    ties by id. Rows of (id, name, score)."""
+    rows of table by <#> of column `by` (the table's phks_key column, or
+    its signatures) against q (a SQL expression), re-ranked by <~>, ties by
+    id. Rows of (id, name, score)."""
     return ("SELECT id, name, sig <~> q AS score FROM "
             "(SELECT id, name, sig, q FROM %s, (SELECT %s AS q) AS query "
-            "ORDER BY sig <#> q, id LIMIT greatest(%d, 32)) AS shortlist "
-            "ORDER BY score, id LIMIT %d;" % (table, q, k, k))
+            "ORDER BY %s <#> q, id LIMIT greatest(%d, 32)) AS shortlist "
+            "ORDER BY score, id LIMIT %d;" % (table, q, by, k, k))
 
 
 def literal(path):

@@ -12,6 +12,7 @@ accessors agree with `phks signature --json`.
 """
 import json
 import os
+import struct
 import subprocess
 import sys
 import time
@@ -79,6 +80,11 @@ for table, files in (("shapes", entries), ("many", many)):
            "sig phks_signature NOT NULL) WITH (toast_tuple_target = 8160);\n"
            "INSERT INTO %s VALUES %s;\nANALYZE %s;"
            % (table, table, values, table))
+# The large table as docs/postgres.md lays it out: a key beside each
+# signature, the signatures out of the rows.
+pg.sql("ALTER TABLE many ALTER COLUMN sig SET STORAGE external, ADD COLUMN "
+       "key phks_key GENERATED ALWAYS AS (phks_key(sig)) STORED;\n"
+       "VACUUM FULL many;\nANALYZE many;")
 
 # Text output is the blob's hex; the stored bytes are the tool's.
 rows = pg.sql("SELECT id, sig FROM shapes ORDER BY id;")
@@ -158,6 +164,22 @@ rows = pg.sql("SELECT bool_and(phks_score(a.sig, b.sig) = b.sig <~> a.sig "
               "FROM shapes a, shapes b;")
 check(rows == [["t"]], "phks_score(q, e) equals e <~> q, "
       "phks_score_nearest(q, e) e <#> q")
+# key <#> query is sig <#> query, bit for bit; a key is smaller and
+# stays in its row, the signature leaves it.
+rows = pg.sql("SELECT bool_and(e.key <#> q.sig = e.sig <#> q.sig), count(*) "
+              "FROM many e, many q WHERE q.id <= 8;")
+check(rows == [["t", str(8 * len(many))]], "key <#> q equals sig <#> q: %s"
+      % rows)
+rows = pg.sql("SELECT max(pg_column_size(key)), "
+              "max(pg_column_size(sig::bytea)), "
+              "pg_relation_size('many') < sum(length(sig::bytea)) FROM many;")
+check(int(rows[0][0]) < 2000 and int(rows[0][1]) > 6000 and rows[0][2] == "t",
+      "keys under 2 KB, signatures out of the rows: %s" % rows)
+plan = pg.sql(PARALLEL + "EXPLAIN " + pgutil.two_stage(
+    "many", pgutil.literal(queries[0]), 10))
+check(any("Gather" in r[0] for r in plan),
+      "the shortlist of keys runs in parallel: %s" % plan)
+
 # The verified score is 0 for a signature against itself and asymmetric;
 # the nearest one symmetric but for the order of its two sums.
 rows = pg.sql("SELECT bool_and(a.sig <~> a.sig <= 1e-12), "
@@ -207,6 +229,23 @@ for bad, what, expect in [
     check("ERROR" in err, "bad bytea (%s): %s" % (what, err))
 check(pg.sql("SELECT 1;") == [["1"]], "the server survives bad blobs")
 
+# Bad keys: errors, never a crash. A key's text is the hex of its bytes:
+# magic, version, count, length (4 bytes each), 4 bytes of padding, the
+# options (72 bytes), then the vectors.
+key = pg.sql("SELECT key FROM many WHERE id = 1;")[0][0]
+nan = struct.pack("<d", float("nan")).hex()
+for bad, what, expect in [
+        ("zz", "not hex", "hex digit"),
+        ("", "empty", "shorter than its header"),
+        ("ff" + key[2:], "magic", "not a phks_key"),
+        (key[:-16], "truncated", "does not match"),
+        (key + "00" * 8, "longer", "does not match"),
+        (key[:-16] + nan, "NaN", "not finite")]:
+    err = pg.error("SELECT '%s'::phks_key;" % bad)
+    check("ERROR" in err and expect in err, "bad key (%s): %s" % (what, err))
+check(pg.sql("SELECT '%s'::phks_key::text = '%s';" % (key, key)) ==
+      [["t"]], "a key's text round trip")
+
 # Binary send/receive: COPY BINARY round trip, and a damaged binary blob.
 copy = os.path.join(pg.root, "shapes.bin")
 pg.sql("COPY shapes TO '%s' (FORMAT binary);\n"
@@ -235,6 +274,8 @@ print("mismatch: " + err.strip().splitlines()[0])
 err = pg.error("SELECT phks_score('%s', sig) FROM shapes;"
                % pgutil.hexfile(other))
 check("hks_scaling" in err, "mismatched options (first argument): %s" % err)
+err = pg.error("SELECT key <#> '%s' FROM many;" % pgutil.hexfile(other))
+check("hks_scaling" in err, "a key of other options names it: %s" % err)
 other2 = pgutil.signatures(phks, meshes[:1], os.path.join(work, "sigs-" +
                                                           source),
                            ["--operator", "literal"])[0]

@@ -87,7 +87,7 @@ check(sum(counts) == COPIES * len(entries) and all(c > 0 for c in counts),
 
 
 def topk(table, q, k):
-    rows = coord.sql(pgutil.two_stage(table, pgutil.literal(q), k))
+    rows = coord.sql(pgutil.two_stage(table, pgutil.literal(q), k, "sig"))
     return [(int(r[0]), r[1], float(r[2])) for r in rows]
 
 
@@ -101,7 +101,7 @@ for q in queries:
               (k, os.path.basename(q), sharded[:3], single[:3]))
 
 plan = coord.sql("EXPLAIN (VERBOSE, COSTS OFF) " +
-                 pgutil.two_stage("shapes", pgutil.literal(queries[0]), 10))
+                 pgutil.two_stage("shapes", pgutil.literal(queries[0]), 10, "sig"))
 remote = [r[0] for r in plan if "Remote SQL" in r[0]]
 print("\n".join(r[0] for r in plan if "Remote SQL" not in r[0]
                 and "Output" not in r[0] and "Key" not in r[0]))

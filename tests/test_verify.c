@@ -532,6 +532,110 @@ START_TEST(database_query_is_two_stages)
 }
 END_TEST
 
+/* The paper's score by its formula, one distance at a time: each L1 sum
+ * in scale order, each side's minima added in order, a's side first. */
+static double nearest_by_formula(const double *a, size_t na, const double *b,
+                                 size_t nb, size_t length)
+{
+    double total = 0;
+    for (int side = 0; side < 2; side++) {
+        const double *x = side ? b : a, *y = side ? a : b;
+        size_t nx = side ? nb : na, ny = side ? na : nb;
+        for (size_t i = 0; i < nx; i++) {
+            double best = INFINITY;
+            for (size_t j = 0; j < ny; j++) {
+                double d = 0;
+                for (size_t s = 0; s < length; s++)
+                    d += fabs(x[i * length + s] - y[j * length + s]);
+                best = d < best ? d : best;
+            }
+            total += best;
+        }
+    }
+    return total;
+}
+
+static double *feature_vectors(const phks_signature *sig)
+{
+    size_t n = phks_signature_feature_count(sig);
+    size_t length = phks_signature_vector_length(sig);
+    double *v = malloc(n * length * sizeof *v);
+    ck_assert_ptr_nonnull(v);
+    for (size_t i = 0; i < n; i++)
+        memcpy(v + i * length, phks_signature_feature_vector(sig, i),
+               length * sizeof *v);
+    return v;
+}
+
+/* phks_score_nearest_vectors is the formula bit for bit, on a creature and
+ * its cut (the same as phks_score_nearest of their signatures) and on
+ * sets of random vectors of many sizes, in both orders. */
+START_TEST(nearest_vectors_follow_the_formula)
+{
+    shape_mesh s;
+    individual(SHAPE_HUMANOID, 0, QUERY_POSE, &s);
+    phks_mesh *whole = mesh_of(s.xyz, s.vertex_count, s.triangles,
+                               s.triangle_count);
+    phks_mesh *cut = cut_third(&s);
+    phks_signature *a = signature_of(cut), *b = signature_of(whole);
+    double *va = feature_vectors(a), *vb = feature_vectors(b);
+    size_t na = phks_signature_feature_count(a);
+    size_t nb = phks_signature_feature_count(b);
+    size_t length = phks_signature_vector_length(a);
+    double by_sig, by_vectors;
+    ck_assert_int_eq(phks_score_nearest(a, b, &by_sig), PHKS_OK);
+    ck_assert_int_eq(
+        phks_score_nearest_vectors(va, na, vb, nb, length, &by_vectors),
+        PHKS_OK);
+    ck_assert(by_sig == by_vectors);
+    ck_assert(by_vectors == nearest_by_formula(va, na, vb, nb, length));
+    free(va);
+    free(vb);
+
+    static const size_t sizes[] = {1, 3, 4, 5, 15, 255, 256, 257, 600};
+    enum { N = sizeof sizes / sizeof *sizes, MAX = 600, LENGTH = 7 };
+    double *x = malloc(2 * MAX * LENGTH * sizeof *x), *y = x + MAX * LENGTH;
+    ck_assert_ptr_nonnull(x);
+    uint64_t state = 7;
+    for (size_t i = 0; i < 2 * MAX * LENGTH; i++) {
+        state = state * 6364136223846793005u + 1442695040888963407u;
+        x[i] = (double)(state >> 11) / 9007199254740992.0 * 8 - 4;
+    }
+    for (size_t p = 0; p < N; p++)
+        for (size_t q = 0; q < N; q++) {
+            double got;
+            ck_assert_int_eq(phks_score_nearest_vectors(x, sizes[p], y,
+                                                        sizes[q], LENGTH,
+                                                        &got),
+                             PHKS_OK);
+            ck_assert(got == nearest_by_formula(x, sizes[p], y, sizes[q],
+                                                LENGTH));
+        }
+
+    double score = -1;
+    ck_assert_int_eq(phks_score_nearest_vectors(NULL, 1, y, 1, LENGTH, &score),
+                     PHKS_ERROR_INVALID_ARGUMENT);
+    ck_assert_int_eq(phks_score_nearest_vectors(x, 0, y, 1, LENGTH, &score),
+                     PHKS_ERROR_INVALID_ARGUMENT);
+    ck_assert_int_eq(phks_score_nearest_vectors(x, 1, y, 1, 0, &score),
+                     PHKS_ERROR_INVALID_ARGUMENT);
+    ck_assert_int_eq(phks_score_nearest_vectors(x, SIZE_MAX / 2, y, 1, 4,
+                                                &score),
+                     PHKS_ERROR_INVALID_ARGUMENT);
+    y[3] = NAN;
+    ck_assert_int_eq(phks_score_nearest_vectors(x, 2, y, 2, 2, &score),
+                     PHKS_ERROR_INVALID_ARGUMENT);
+    ck_assert_ptr_nonnull(strstr(phks_last_error_message(), "not finite"));
+    ck_assert(score == -1);
+    free(x);
+    phks_signature_free(a);
+    phks_signature_free(b);
+    phks_mesh_free(cut);
+    phks_mesh_free(whole);
+    shape_mesh_free(&s);
+}
+END_TEST
+
 int main(void)
 {
     Suite *s = suite_create("verify");
@@ -544,6 +648,7 @@ int main(void)
     tcase_add_test(c, bend_keeps_correspondences);
     tcase_add_test(c, parts_verify_right_pairs);
     tcase_add_test(c, database_query_is_two_stages);
+    tcase_add_test(c, nearest_vectors_follow_the_formula);
     suite_add_tcase(s, c);
     return run_suite(s);
 }

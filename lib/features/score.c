@@ -6,6 +6,8 @@
 #include "features/features.h"
 
 #include <math.h>
+#include <stdbool.h>
+#include <stdint.h>
 
 static double l1(const double *a, const double *b, size_t n)
 {
@@ -15,22 +17,102 @@ static double l1(const double *a, const double *b, size_t n)
     return s;
 }
 
-/* Nearest feature of `to` for feature i of `from` (lowest index on ties). */
-static size_t nearest(const phks_signature *from, size_t i,
-                      const phks_signature *to, double *distance)
+/* The L1 distances from x to four vectors at once, each a sum of its own:
+ * the additions of one sum wait on each other, but not on the other
+ * sums', which one sum at a time would (it is bound by an addition's
+ * latency). Each sum still adds its terms in l1's order, so the bits are
+ * l1's, and those of the db's scan (db_scan.c). */
+static void l1_four(const double *x, const double *to, size_t length,
+                    double d[4])
 {
-    size_t best = 0;
-    double d = INFINITY;
-    for (size_t j = 0; j < to->count; j++) {
-        double e = l1(from->vectors + i * from->length,
-                      to->vectors + j * to->length, from->length);
-        if (e < d) {
-            d = e;
-            best = j;
-        }
+    const double *p0 = to, *p1 = to + length, *p2 = p1 + length,
+                 *p3 = p2 + length;
+    double s0 = 0, s1 = 0, s2 = 0, s3 = 0;
+    for (size_t s = 0; s < length; s++) {
+        s0 += fabs(x[s] - p0[s]);
+        s1 += fabs(x[s] - p1[s]);
+        s2 += fabs(x[s] - p2[s]);
+        s3 += fabs(x[s] - p3[s]);
     }
-    *distance = d;
-    return best;
+    d[0] = s0;
+    d[1] = s1;
+    d[2] = s2;
+    d[3] = s3;
+}
+
+/* Below this many vectors in b, one pass over the distances gives both
+ * sides' minima (b's kept in an array on the stack); above, each side is
+ * a pass of its own. Both give the same numbers: each distance is
+ * computed the same way, and the minima and the sum are taken in the
+ * same order. */
+#define ONE_PASS_MAX 256
+
+typedef struct nearest_out {
+    double d;  /* distance to the nearest vector of the other set */
+    size_t at; /* its index there, the lowest on ties */
+} nearest_out;
+
+/* Folds the distance e from vector i of a to vector j of b into row's
+ * nearest (i's) and, where col is not NULL, into column j's. */
+static void fold(double e, size_t i, size_t j, nearest_out *row,
+                 nearest_out *col)
+{
+    if (e < row->d)
+        *row = (nearest_out){e, j};
+    if (col && e < col[j].d)
+        col[j] = (nearest_out){e, i};
+}
+
+/* Vector i of a, x, against every vector of b (row-major, `length`
+ * each). */
+static nearest_out row_against(const double *x, size_t i, const double *b,
+                               size_t nb, size_t length, nearest_out *col)
+{
+    nearest_out row = {INFINITY, 0};
+    size_t j = 0;
+    for (; j + 4 <= nb; j += 4) {
+        double e[4];
+        l1_four(x, b + j * length, length, e);
+        for (size_t u = 0; u < 4; u++)
+            fold(e[u], i, j + u, &row, col);
+    }
+    for (; j < nb; j++)
+        fold(l1(x, b + j * length, length), i, j, &row, col);
+    return row;
+}
+
+static void put_pair(phks_correspondence *out, size_t at, size_t fa,
+                     size_t fb, double d, bool from_a)
+{
+    if (out)
+        out[at] = (phks_correspondence){(uint32_t)fa, (uint32_t)fb, d,
+                                        from_a, 0};
+}
+
+/* The paper's score of two sets of row-major vectors, and into out (NULL:
+ * not wanted) its pairs: a row per vector of a, then one per vector of b. */
+static double nearest_sum(const double *a, size_t na, const double *b,
+                          size_t nb, size_t length, phks_correspondence *out)
+{
+    nearest_out col[ONE_PASS_MAX];
+    bool one_pass = nb <= ONE_PASS_MAX;
+    for (size_t j = 0; one_pass && j < nb; j++)
+        col[j] = (nearest_out){INFINITY, 0};
+    double total = 0;
+    for (size_t i = 0; i < na; i++) {
+        nearest_out r = row_against(a + i * length, i, b, nb, length,
+                                    one_pass ? col : NULL);
+        total += r.d;
+        put_pair(out, i, i, r.at, r.d, true);
+    }
+    for (size_t j = 0; j < nb; j++) {
+        nearest_out c = one_pass ? col[j]
+                                 : row_against(b + j * length, j, a, na,
+                                               length, NULL);
+        total += c.d;
+        put_pair(out, na + j, c.at, j, c.d, false);
+    }
+    return total;
 }
 
 static phks_status check_pair(const phks_signature *a, const phks_signature *b,
@@ -53,25 +135,13 @@ static phks_status check_pair(const phks_signature *a, const phks_signature *b,
     return PHKS_OK;
 }
 
-/* The paper's score, and into out (NULL: not wanted) its pairs: a row
- * per feature of a, then one per feature of b. */
+/* The paper's score of two signatures' features, and into out (NULL: not
+ * wanted) its pairs. */
 static double nearest_pairs(const phks_signature *a, const phks_signature *b,
                             phks_correspondence *out)
 {
-    double total = 0;
-    for (int side = 0; side < 2; side++) {
-        const phks_signature *from = side ? b : a, *to = side ? a : b;
-        for (size_t i = 0; i < from->count; i++) {
-            double d;
-            size_t j = nearest(from, i, to, &d);
-            total += d;
-            if (out)
-                out[(side ? a->count : 0) + i] = (phks_correspondence){
-                    (uint32_t)(side ? j : i), (uint32_t)(side ? i : j), d,
-                    side == 0, 0};
-        }
-    }
-    return total;
+    return nearest_sum(a->vectors, a->count, b->vectors, b->count, a->length,
+                       out);
 }
 
 /* Marks the verified pairs of out, and names in a's rows each verified
@@ -135,6 +205,35 @@ phks_status phks_score_nearest(const phks_signature *a,
     if (st == PHKS_OK)
         *score = nearest_pairs(a, b, NULL);
     return st;
+}
+
+static bool all_finite(const double *v, size_t n)
+{
+    for (size_t i = 0; i < n; i++)
+        if (!isfinite(v[i]))
+            return false;
+    return true;
+}
+
+phks_status phks_score_nearest_vectors(const double *a, size_t a_count,
+                                       const double *b, size_t b_count,
+                                       size_t length, double *score)
+{
+    static const char fn[] = "phks_score_nearest_vectors";
+    if (!a || !b || !score)
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT, "%s: NULL argument", fn);
+    if (a_count == 0 || b_count == 0 || length == 0)
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
+                         "%s: %zu and %zu vectors of length %zu (none may be 0)",
+                         fn, a_count, b_count, length);
+    if (a_count > SIZE_MAX / length || b_count > SIZE_MAX / length)
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT, "%s: too many vectors",
+                         fn);
+    if (!all_finite(a, a_count * length) || !all_finite(b, b_count * length))
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
+                         "%s: a vector entry is not finite", fn);
+    *score = nearest_sum(a, a_count, b, b_count, length, NULL);
+    return PHKS_OK;
 }
 
 phks_status phks_score(const phks_signature *a, const phks_signature *b,

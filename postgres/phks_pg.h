@@ -1,0 +1,51 @@
+/*
+ * phks_pg.h - what the extension's files share: errors raised with the
+ * library's message, blobs decoded into handles, hex text, and the query
+ * signature kept between the calls of one expression.
+ */
+#ifndef PHKS_PG_H
+#define PHKS_PG_H
+
+#include "postgres.h"
+
+#include "fmgr.h"
+
+#include "phks.h"
+
+/* The library's message for the last failure, copied into palloc'd memory
+ * (call it before freeing handles: a later failing call replaces it). */
+char *phks_pg_last_message(phks_status st);
+
+/* Raises the error of status st, "what: msg", with the SQLSTATE of st.
+ * Call it only once every library handle is freed. */
+void phks_pg_error(phks_status st, const char *what, char *msg)
+    pg_attribute_noreturn();
+
+/* Decodes a blob into a new library handle, or raises the decode error
+ * (nothing to free then: decode leaves its output NULL on failure). */
+phks_signature *phks_pg_decode(const void *data, size_t size,
+                               const char *what);
+
+/* The bytes of hex text (an optional \x prefix is accepted, as for
+ * bytea), palloc'd, into *size; a syntax error names type. */
+char *phks_pg_hex_decode(const char *text, const char *type, size_t *size);
+/* The hex text of size bytes, palloc'd. */
+char *phks_pg_hex_encode(const void *data, size_t size);
+
+typedef struct phks_pg_key phks_pg_key;
+
+/* A query signature decoded once per expression (the constant side of
+ * ORDER BY sig <~> $1), keyed by its bytes, in fn_extra; the handle is
+ * freed with the expression's memory context. */
+typedef struct query_cache {
+    size_t size;
+    char *blob;          /* in fn_mcxt */
+    phks_signature *sig; /* library handle, freed by the reset callback */
+    phks_pg_key *key;    /* its key (phks_pg_key.c), made on first use */
+    MemoryContextCallback cb;
+} query_cache;
+
+query_cache *phks_pg_cached_query(FunctionCallInfo fcinfo, bytea *blob,
+                                  const char *name);
+
+#endif
