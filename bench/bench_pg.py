@@ -2,10 +2,11 @@
 """bench_pg.py BUILD_DIR [-n N] [--queries Q] [--skip-single|--skip-shards]
 
 Times phks_db_query's top 10 in SQL (the two-stage query of
-docs/postgres.md: a shortlist of 100 by sig <#> q, re-ranked by sig <~> q)
-over N synthetic signatures (default 100000) on one throwaway server, and on three shard
-servers behind a postgres_fdw coordinator (docs/scale.md), all on this
-machine. Called by bench/bench_pg.sh; needs what tests/test_postgres.py
+docs/postgres.md: a shortlist of 32 by <#> q, re-ranked by sig <~> q) over
+N synthetic signatures (default 100000) on one throwaway server, and on
+three shard servers behind a postgres_fdw coordinator (docs/scale.md), all
+on this machine. Every table keeps a phks_key beside each signature and
+shortlists by key <#> q (docs/postgres.md, "Large tables"). Called by bench/bench_pg.sh; needs what tests/test_postgres.py
 needs (root, the server packages, the built extension).
 
 The synthetic signatures are valid blobs with the default options: 15
@@ -102,8 +103,10 @@ def copy_binary(cluster, table, ids):
         raise SystemExit("COPY failed")
 
 
-TABLE = ("(id bigint NOT NULL, name text NOT NULL, sig phks_signature "
-         "NOT NULL) WITH (toast_tuple_target = 8160)")
+KEYED_TABLE = ("CREATE TABLE shapes (id bigint NOT NULL, name text NOT NULL, "
+               "sig phks_signature NOT NULL, key phks_key GENERATED ALWAYS "
+               "AS (phks_key(sig)) STORED);\n"
+               "ALTER TABLE shapes ALTER COLUMN sig SET STORAGE external;")
 queries = [synthetic(10 ** 9 + i).hex() for i in range(args.queries)]
 SHARD_QUERY = "SELECT * FROM shard_topk('%s', 10);"
 
@@ -137,7 +140,7 @@ single_results = None
 if not args.skip_single:
     pg = pgutil.Cluster(bindir, "bench-single",
                         settings=["shared_buffers=1GB", "max_wal_size=4GB"])
-    pg.sql("CREATE EXTENSION phks; CREATE TABLE shapes %s;" % TABLE)
+    pg.sql("CREATE EXTENSION phks; " + KEYED_TABLE)
     t = time.time()
     copy_binary(pg, "shapes", range(1, args.n + 1))
     pg.sql("ANALYZE shapes; SELECT count(*) FROM shapes;")
@@ -159,10 +162,11 @@ if not args.skip_shards:
     coord = pgutil.Cluster(bindir, "bench-coord")
     setup = ["CREATE EXTENSION phks;", "CREATE EXTENSION postgres_fdw;",
              "CREATE TABLE shapes (id bigint NOT NULL, name text NOT NULL, "
-             "sig phks_signature NOT NULL) PARTITION BY HASH (id);"]
+             "sig phks_signature NOT NULL, key phks_key) "
+             "PARTITION BY HASH (id);"]
     t = time.time()
     for i, s in enumerate(shards):
-        s.sql("CREATE EXTENSION phks; CREATE TABLE shapes %s;" % TABLE)
+        s.sql("CREATE EXTENSION phks; " + KEYED_TABLE)
         # Rows straight to their shard (the hash of the coordinator's
         # partitioning decides which: satisfies_hash_partition).
         setup += [
@@ -196,7 +200,7 @@ if not args.skip_shards:
         assert res == single_results, "sharded top-10 differs"
     report.append(("coordinator + %d shards (Merge Append)" % args.shards,
                    med, best))
-    coord.sql(pgutil.SHARD_TOPK)
+    coord.sql(pgutil.shard_topk("key"))
     med, best, res = timed(coord, "shapes", "", shard_topk=True)
     if single_results is not None:
         assert res == single_results, "shard_topk differs"

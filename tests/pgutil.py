@@ -300,6 +300,12 @@ def literal(path):
 # (docs/scale.md): the global shortlist by <#> is among the shards' own,
 # and <~> re-ranks it. The tests and bench/bench_pg.py create it on the
 # coordinator.
+def shard_topk(by="key"):
+    """The function shard_topk(q, k), shortlisting by column `by` (the
+    shards' phks_key column, or their signatures)."""
+    return SHARD_TOPK.replace("{by}", by)
+
+
 SHARD_TOPK = """
 CREATE FUNCTION shard_topk(q phks_signature, k int)
 RETURNS TABLE (id bigint, name text, score float8)
@@ -310,8 +316,8 @@ DECLARE
 BEGIN
   FOR part IN SELECT inhrelid::regclass FROM pg_inherits
               WHERE inhparent = 'shapes'::regclass LOOP
-    parts := parts || format('(SELECT id, name, sig, sig <#> $1 AS nearest '
-                             'FROM %s ORDER BY sig <#> $1, id '
+    parts := parts || format('(SELECT id, name, sig, {by} <#> $1 AS nearest '
+                             'FROM %s ORDER BY {by} <#> $1, id '
                              'LIMIT greatest($2, 32))', part);
   END LOOP;
   -- OFFSET 0 keeps the branches under a plain Append, which runs the

@@ -114,7 +114,7 @@ check(len(remote) == SHARDS and all("ORDER BY (sig OPERATOR(public.<#>)"
 
 # The same top k with a LIMIT on every shard (docs/scale.md): each shard
 # sends only its own shortlist.
-coord.sql(pgutil.SHARD_TOPK)
+coord.sql(pgutil.shard_topk("sig"))
 for q in queries[:3]:
     for k in (1, 10):
         rows = coord.sql("SELECT * FROM shard_topk('%s', %d);" %
