@@ -162,7 +162,8 @@ if not args.skip_shards:
     coord = pgutil.Cluster(bindir, "bench-coord")
     setup = ["CREATE EXTENSION phks;", "CREATE EXTENSION postgres_fdw;",
              "CREATE TABLE shapes (id bigint NOT NULL, name text NOT NULL, "
-             "sig phks_signature NOT NULL, key phks_key) "
+             "sig phks_signature NOT NULL, key phks_key GENERATED ALWAYS "
+             "AS (phks_key(sig)) STORED) "
              "PARTITION BY HASH (id);"]
     t = time.time()
     for i, s in enumerate(shards):
