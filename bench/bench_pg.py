@@ -111,26 +111,42 @@ queries = [synthetic(10 ** 9 + i).hex() for i in range(args.queries)]
 SHARD_QUERY = "SELECT * FROM shard_topk('%s', 10);"
 
 
+CPU = "\\! awk '{print \"cpu\", $14 + $15}' /proc/$PHKS_PID/stat\n"
+
+
 def timed(cluster, table, pre="", shard_topk=False):
     """Median and best time of the queries, in one session after one
-    warm-up query (connections to the shards, caches)."""
-    script = "\\timing on\n" + pre + "".join(
-        (SHARD_QUERY % q if shard_topk else
-         pgutil.two_stage(table, "'%s'::phks_signature" % q, 10)) +
-        "\\echo ==\n" for q in [queries[0]] + queries)
+    warm-up query (connections to the shards, caches), and the median
+    processor time of the session's own backend per query (user + system,
+    from /proc: parallel workers' and shards' own are not in it)."""
+    script = ("\\timing on\nSELECT pg_backend_pid() AS pid \\gset\n"
+              "\\setenv PHKS_PID :pid\n" + pre +
+              "".join((SHARD_QUERY % q if shard_topk else
+                       pgutil.two_stage(table, "'%s'::phks_signature" % q,
+                                        10)) + CPU + "\\echo ==\n"
+                      for q in [queries[0]] + queries))
+    # Each psql session's backend loads the module anew: the build's, in
+    # case another build was installed since (the files are shared).
+    pgutil.install_extension(build)
     out = subprocess.run(
         [os.path.join(bindir, "psql"), "-X", "-A", "-t", "-v",
          "ON_ERROR_STOP=1", "-h", cluster.sock, "-p", str(cluster.port),
          "-U", "postgres", "-f", "-"], input=script, capture_output=True,
-        text=True, check=True)
-    blocks = out.stdout.split("==\n")[1:len(queries) + 1]
+        text=True)
+    if out.returncode != 0:
+        raise SystemExit("psql: " + out.stderr[-2000:])
+    blocks = out.stdout.split("==\n")[:len(queries) + 1]
+    tick = os.sysconf("SC_CLK_TCK")
+    cpu = [float([x for x in b.splitlines() if x.startswith("cpu ")][-1]
+                 .split()[1]) / tick for b in blocks]
     times, results = [], []
-    for b in blocks:
+    for b in blocks[1:]:
         lines = b.splitlines()
         times.append(float([x for x in lines if x.startswith("Time:")][-1]
                            .split()[1]))
         results.append([x for x in lines if "|" in x])
-    return statistics.median(times), min(times), results
+    cpu_ms = statistics.median(1000 * (b - a) for a, b in zip(cpu, cpu[1:]))
+    return statistics.median(times), min(times), cpu_ms, results
 
 
 report = []
@@ -145,13 +161,13 @@ if not args.skip_single:
     copy_binary(pg, "shapes", range(1, args.n + 1))
     pg.sql("ANALYZE shapes; SELECT count(*) FROM shapes;")
     print("single: loaded in %.1f s" % (time.time() - t))
-    med, best, single_results = timed(
+    med, best, cpu, single_results = timed(
         pg, "shapes", "SET max_parallel_workers_per_gather = 0;\n")
-    report.append(("one server, one process", med, best))
-    med, best, res = timed(pg, "shapes",
+    report.append(("one server, one process", med, best, cpu))
+    med, best, cpu, res = timed(pg, "shapes",
                            "SET max_parallel_workers_per_gather = 2;\n")
     assert res == single_results, "parallel plan differs"
-    report.append(("one server, 2 parallel workers", med, best))
+    report.append(("one server, 2 parallel workers", med, best, cpu))
     pg.stop()
 
 if not args.skip_shards:
@@ -196,30 +212,30 @@ if not args.skip_shards:
     print("shards: loaded in %.1f s (%s rows)" %
           (time.time() - t, [len(owner.get(r, [])) for r in
                              range(args.shards)]))
-    med, best, res = timed(coord, "shapes")
+    med, best, cpu, res = timed(coord, "shapes")
     if single_results is not None:
         assert res == single_results, "sharded top-10 differs"
     report.append(("coordinator + %d shards (Merge Append)" % args.shards,
-                   med, best))
+                   med, best, cpu))
     coord.sql(pgutil.shard_topk("key"))
-    med, best, res = timed(coord, "shapes", "", shard_topk=True)
+    med, best, cpu, res = timed(coord, "shapes", "", shard_topk=True)
     if single_results is not None:
         assert res == single_results, "shard_topk differs"
     report.append(("coordinator + %d shards (shard_topk, LIMIT per shard)"
-                   % args.shards, med, best))
+                   % args.shards, med, best, cpu))
     # The shards' scans at the same time (postgres_fdw's async Append).
     coord.sql("".join("ALTER SERVER shard%d OPTIONS (ADD async_capable "
                       "'true');" % i for i in range(args.shards)))
-    med, best, res = timed(coord, "shapes", "", shard_topk=True)
+    med, best, cpu, res = timed(coord, "shapes", "", shard_topk=True)
     if single_results is not None:
         assert res == single_results, "async shard_topk differs"
     report.append(("coordinator + %d shards (shard_topk, async_capable)"
-                   % args.shards, med, best))
+                   % args.shards, med, best, cpu))
     for c in shards + [coord]:
         c.stop()
 
 print()
-print("| setup | median ms | best ms |")
-print("|---|---|---|")
-for name, med, best in report:
-    print("| %s | %.0f | %.0f |" % (name, med, best))
+print("| setup | median ms | best ms | backend CPU ms |")
+print("|---|---|---|---|")
+for name, med, best, cpu in report:
+    print("| %s | %.0f | %.0f | %.0f |" % (name, med, best, cpu))
