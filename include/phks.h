@@ -617,7 +617,9 @@ PHKS_API phks_status phks_signature_from_spectrum(const phks_mesh *mesh,
  * of them and to the boundary. The vertices phks_signature_from_spectrum
  * picked give back its signature, number for number, apart from the
  * persistence: that of a given point is 0 (no region merging ranked it;
- * as a sample's). Its feature count is count; it is comparable with
+ * as a sample's). (Where two pieces of a mesh touch at a single vertex,
+ * each keeps a maximum, and both may be that vertex: such a list, with a
+ * vertex twice, is refused here; drop the repeat.) Its feature count is count; it is comparable with
  * every signature made with the same options. options must be those the
  * spectrum was computed with (NULL: the defaults). *signature is the
  * caller's, freed with phks_signature_free; vertices stays the caller's.

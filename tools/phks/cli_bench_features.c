@@ -129,10 +129,18 @@ static phks_status at_maxima(const phks_mesh *mesh, const phks_spectrum *spec,
     phks_status st = max && vertex ? phks_persistent_maxima(mesh, f, wanted, 0,
                                                            max, &count, NULL)
                                    : PHKS_ERROR_OUT_OF_MEMORY;
-    for (size_t i = 0; st == PHKS_OK && i < count; i++)
-        vertex[i] = max[i].vertex;
+    /* Pieces that touch at one vertex keep a maximum each, and that
+     * vertex may be the maximum of both: it is one feature point. */
+    size_t kept = 0;
+    for (size_t i = 0; st == PHKS_OK && i < count; i++) {
+        size_t j = 0;
+        while (j < kept && vertex[j] != max[i].vertex)
+            j++;
+        if (j == kept)
+            vertex[kept++] = max[i].vertex;
+    }
     if (st == PHKS_OK)
-        st = phks_signature_at_vertices(mesh, spec, o, vertex, count, sig);
+        st = phks_signature_at_vertices(mesh, spec, o, vertex, kept, sig);
     free(max);
     free(vertex);
     return st;
