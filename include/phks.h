@@ -606,6 +606,34 @@ PHKS_API phks_status phks_signature_from_spectrum(const phks_mesh *mesh,
                                                   const phks_spectrum *spectrum,
                                                   const phks_options *options,
                                                   phks_signature **signature);
+/* The signature whose feature points are the given vertices (count of
+ * them, indices of the cleaned mesh, as phks_signature_feature_vertex
+ * gives), in the given order, instead of the persistent maxima of HKS:
+ * a host's own landmarks, or the maxima of another function. Everything
+ * else is made exactly as phks_signature_from_spectrum makes it: each
+ * point's vector (HKS at options->scales, scaled by
+ * options->hks_scaling), and with PHKS_MATCHING_VERIFIED the spread
+ * samples after the points, the distances along the surface between all
+ * of them and to the boundary. The vertices phks_signature_from_spectrum
+ * picked give back its signature, number for number, apart from the
+ * persistence: that of a given point is 0 (no region merging ranked it;
+ * as a sample's). (Where two pieces of a mesh touch at a single vertex,
+ * each keeps a maximum, and both may be that vertex: such a list, with a
+ * vertex twice, is refused here; drop the repeat.) Its feature count is count; it is comparable with
+ * every signature made with the same options. options must be those the
+ * spectrum was computed with (NULL: the defaults). *signature is the
+ * caller's, freed with phks_signature_free; vertices stays the caller's.
+ * Errors: PHKS_ERROR_INVALID_ARGUMENT (NULL, the spectrum's vertex count
+ * or options not the mesh's and these, count 0 or above
+ * options->feature_count, a vertex out of range, a vertex given twice),
+ * PHKS_ERROR_OUT_OF_MEMORY, PHKS_ERROR_CANCELLED (options->progress,
+ * reported under PHKS_STAGE_PERSISTENCE). Thread-safe. */
+PHKS_API phks_status phks_signature_at_vertices(const phks_mesh *mesh,
+                                                const phks_spectrum *spectrum,
+                                                const phks_options *options,
+                                                const uint32_t *vertices,
+                                                size_t count,
+                                                phks_signature **signature);
 PHKS_API void phks_signature_free(phks_signature *signature);
 
 /* Number of feature points (at most options->feature_count; fewer when the

@@ -472,6 +472,17 @@ static phks_status step_from_spectrum(void *ctx, bytes *out)
     return take_signature(st, sig, out);
 }
 
+/* The same from three of the caller's vertices. */
+static phks_status step_at_vertices(void *ctx, bytes *out)
+{
+    const compute_ctx *c = ctx;
+    const uint32_t vertices[3] = {0, 50, 100};
+    phks_signature *sig = (phks_signature *)out;
+    phks_status st = phks_signature_at_vertices(c->mesh, c->spectrum,
+                                                &c->options, vertices, 3, &sig);
+    return take_signature(st, sig, out);
+}
+
 /* decode, then encode again (encode itself writes into the caller's
  * buffer and allocates nothing; the sweep checks that too). */
 static phks_status step_decode(void *ctx, bytes *out)
@@ -552,6 +563,8 @@ START_TEST(spectra_and_signatures)
         }
         sweep(simplified ? "from_spectrum HKS-simp" : "from_spectrum",
               step_from_spectrum, cc, 3);
+        sweep(simplified ? "at_vertices HKS-simp" : "at_vertices",
+              step_at_vertices, cc, 3);
         /* the same signature as the whole pipeline gives */
         long calls;
         bytes a = reference_run("whole", step_signature, cc, &calls);

@@ -594,6 +594,36 @@ expect_rc 1 "bench of an unknown class"; expect_err "no class nope"
 run "$phks" bench missing.tsv; expect_rc 1 "bench of a missing manifest"
 expect_err "^phks: missing.tsv: "
 run "$phks" bench set/MANIFEST.tsv --seeds 0; expect_rc 2 "bench --seeds 0"
+# The comparison rows: a comparison run with a cache stores every output
+# of each version's one eigen-solve (the three feature functions'
+# signatures and the eigenvalues), and the other rows' runs read them;
+# its HKS signatures are the default run's.
+run "$phks" bench set/MANIFEST.tsv --prefix "" --cache rows -j 2 --no-source \
+    --feature-function agd
+expect_rc 0 "bench --feature-function agd"
+expect_out "^Feature function: agd; descriptor: the signatures"
+expect_out "Signatures: 12 computed, 0 from the cache"
+[ "$(ls rows | grep -c '^[0-9a-f]\{16\}\.sig$')" -eq 36 ] &&
+    [ "$(ls rows | grep -c '^[0-9a-f]\{16\}\.evd$')" -eq 12 ] ||
+    fail "bench --feature-function agd: not 36 signatures and 12 eigenvalues"
+for row in "--feature-function gc" "--descriptor evd" "--feature-function hks"
+do
+    run "$phks" bench set/MANIFEST.tsv --prefix "" --cache rows -j 1 \
+        --no-source --queries-out q2.tsv $row
+    expect_rc 0 "bench $row"
+    expect_out "Signatures: 0 computed, 12 from the cache"
+    expect_out "^| all | 6 | 0 | "
+done
+cmp -s q2.tsv q1.tsv || fail "bench: the comparison run's HKS signatures differ"
+run "$phks" bench set/MANIFEST.tsv --prefix "" --descriptor evd -j 2 --no-source
+expect_rc 0 "bench --descriptor evd"
+expect_out "^Feature function: hks; descriptor: evd"
+expect_out "Signatures: 12 computed, 0 from the cache"
+run "$phks" bench set/MANIFEST.tsv --feature-function sift
+expect_rc 2 "bench --feature-function sift"
+run "$phks" bench set/MANIFEST.tsv --descriptor evd --feature-function gc
+expect_rc 2 "bench --descriptor evd --feature-function gc"
+expect_err "no --feature-function"
 # The source part on real models (two classes of small meshes), when the
 # shared data is there: its rates are numbers in [0, 100].
 shared=${PHKS_SHARED_MESHES:-}

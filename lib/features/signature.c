@@ -55,22 +55,21 @@ phks_status phks__signature_alloc_layout(phks_signature *sig)
 
 /* The spectrum must come from the same operator as the options describe;
  * anything else would silently mix incomparable numbers. */
-static phks_status check_spectrum(const phks_mesh *mesh,
+static phks_status check_spectrum(const char *fn, const phks_mesh *mesh,
                                   const phks_spectrum *spec,
                                   const phks_options *opt)
 {
     if (spec->n != mesh->vertex_count)
         return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
-                         "phks_signature_from_spectrum: the spectrum has %zu "
-                         "vertices, the mesh %zu",
-                         spec->n, mesh->vertex_count);
+                         "%s: the spectrum has %zu vertices, the mesh %zu",
+                         fn, spec->n, mesh->vertex_count);
     char detail[128];
     if (phks__options_difference(opt, &spec->options, true, detail,
                                  sizeof detail))
         return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
-                         "phks_signature_from_spectrum: the options differ "
-                         "from those the spectrum was computed with (%s)",
-                         detail);
+                         "%s: the options differ from those the spectrum "
+                         "was computed with (%s)",
+                         fn, detail);
     return PHKS_OK;
 }
 
@@ -252,6 +251,58 @@ static phks_status spread_after(const phks__unit_mesh *um,
     return st;
 }
 
+/* The signature of the points `maxima` (found of them, vertices of
+ * um->mesh): the spread samples with PHKS_MATCHING_VERIFIED, the vectors
+ * and the layout, progress from 0.95 of PHKS_STAGE_PERSISTENCE on.
+ * Shared by the persistent maxima and the caller's own vertices, so that
+ * the two make the same numbers for the same points. */
+static phks_status signature_of(const phks__unit_mesh *um,
+                                const phks_spectrum *spec,
+                                const phks_options *opt,
+                                const phks_maximum *maxima, size_t found,
+                                phks_signature **out)
+{
+    const phks_mesh *mesh = um->mesh;
+    size_t samples = 0;
+    uint32_t spread[PHKS__SAMPLES];
+    phks_signature *sig = NULL;
+    bool verified = opt->matching == PHKS_MATCHING_VERIFIED;
+    phks_status st = PHKS_OK;
+    if (verified)
+        st = spread_after(um, maxima, found, spread, &samples);
+    if (st == PHKS_OK)
+        st = phks__signature_alloc(found, samples, opt->scale_count, &sig);
+    if (st != PHKS_OK)
+        return st;
+    sig->options = *opt;
+    sig->options.progress = NULL;
+    sig->options.progress_user = NULL;
+    for (size_t i = 0; i < found; i++) {
+        uint32_t v = maxima[i].vertex;
+        sig->vertex[i] = v;
+        memcpy(sig->position + 3 * i, mesh->xyz + 3 * (size_t)v, 3 * sizeof(double));
+        sig->persistence[i] = maxima[i].persistence;
+    }
+    for (size_t i = 0; i < samples; i++) {
+        sig->vertex[found + i] = spread[i];
+        for (int d = 0; d < 3; d++)
+            sig->position[3 * (found + i) + d] =
+                (float)mesh->xyz[3 * (size_t)spread[i] + d];
+        sig->persistence[found + i] = 0;
+    }
+    st = feature_vectors(um, spec, opt, sig);
+    if (st == PHKS_OK && verified)
+        st = phks__signature_layout(um, opt, sig);
+    if (st == PHKS_OK)
+        st = phks__progress(opt, PHKS_STAGE_PERSISTENCE, 1);
+    if (st != PHKS_OK) {
+        phks_signature_free(sig);
+        return st;
+    }
+    *out = sig;
+    return PHKS_OK;
+}
+
 /* phks_signature_from_spectrum on resolved options and a checked
  * spectrum. The unit box's scale and areas come from `given`, or, when it
  * is NULL, are computed here where the taper or the local areas need
@@ -270,7 +321,6 @@ static phks_status from_spectrum(const phks_mesh *mesh,
         wanted = mesh->triangle_count;
     double *h = phks__malloc_array(n, sizeof *h);
     phks_maximum *maxima = NULL;
-    phks_signature *sig = NULL;
     size_t found = 0;
     phks_status st;
     if (!h) {
@@ -303,46 +353,13 @@ static phks_status from_spectrum(const phks_mesh *mesh,
     if (st == PHKS_OK)
         st = phks__persistence_run(mesh, h, wanted, 0, at, maxima, &found,
                                    NULL);
-    size_t samples = 0;
-    uint32_t spread[PHKS__SAMPLES];
-    bool verified = opt->matching == PHKS_MATCHING_VERIFIED;
-    if (st == PHKS_OK && verified)
-        st = spread_after(um, maxima, found, spread, &samples);
     if (st == PHKS_OK)
-        st = phks__signature_alloc(found, samples, opt->scale_count, &sig);
-    if (st != PHKS_OK)
-        goto done;
-    sig->options = *opt;
-    sig->options.progress = NULL;
-    sig->options.progress_user = NULL;
-    for (size_t i = 0; i < found; i++) {
-        uint32_t v = maxima[i].vertex;
-        sig->vertex[i] = v;
-        memcpy(sig->position + 3 * i, mesh->xyz + 3 * (size_t)v, 3 * sizeof(double));
-        sig->persistence[i] = maxima[i].persistence;
-    }
-    for (size_t i = 0; i < samples; i++) {
-        sig->vertex[found + i] = spread[i];
-        for (int d = 0; d < 3; d++)
-            sig->position[3 * (found + i) + d] =
-                (float)mesh->xyz[3 * (size_t)spread[i] + d];
-        sig->persistence[found + i] = 0;
-    }
-    st = feature_vectors(um, spec, opt, sig);
-    if (st == PHKS_OK && verified)
-        st = phks__signature_layout(um, opt, sig);
-    if (st == PHKS_OK)
-        st = phks__progress(opt, PHKS_STAGE_PERSISTENCE, 1);
+        st = signature_of(um, spec, opt, maxima, found, out);
 done:
     phks__unit_mesh_release(&own);
     phks__free(h);
     phks__free(maxima);
-    if (st != PHKS_OK) {
-        phks_signature_free(sig);
-        return st;
-    }
-    *out = sig;
-    return PHKS_OK;
+    return st;
 }
 
 phks_status phks_signature_from_spectrum(const phks_mesh *mesh,
@@ -358,12 +375,99 @@ phks_status phks_signature_from_spectrum(const phks_mesh *mesh,
     phks_options opt;
     phks_status st = phks__options_resolve(options, &opt);
     if (st == PHKS_OK)
-        st = check_spectrum(mesh, spec, &opt);
+        st = check_spectrum("phks_signature_from_spectrum", mesh, spec, &opt);
     if (st == PHKS_OK)
         st = phks__progress(&opt, PHKS_STAGE_HKS, 0);
     if (st != PHKS_OK)
         return st;
     return from_spectrum(mesh, NULL, spec, &opt, out);
+}
+
+#define AT_VERTICES "phks_signature_at_vertices"
+
+/* The caller's points: 1..feature_count of them, each a vertex of the
+ * mesh, none twice (two features at one vertex would be a pair at
+ * distance zero, which no correspondence can verify). */
+static phks_status check_vertices(const phks_mesh *mesh,
+                                  const phks_options *opt,
+                                  const uint32_t *vertices, size_t count)
+{
+    if (count == 0 || count > opt->feature_count)
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
+                         AT_VERTICES ": %zu vertices, not 1..%u "
+                         "(options->feature_count)",
+                         count, opt->feature_count);
+    size_t n = mesh->vertex_count;
+    unsigned char *seen = phks__calloc(n ? n : 1, 1);
+    if (!seen)
+        return phks__fail_oom(AT_VERTICES);
+    phks_status st = PHKS_OK;
+    for (size_t i = 0; st == PHKS_OK && i < count; i++) {
+        uint32_t v = vertices[i];
+        if (v >= n)
+            st = phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
+                            AT_VERTICES ": vertex %u (entry %zu) is out of "
+                            "range (%zu vertices)", v, i, n);
+        else if (seen[v])
+            st = phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
+                            AT_VERTICES ": vertex %u is given twice (entry "
+                            "%zu)", v, i);
+        else
+            seen[v] = 1;
+    }
+    phks__free(seen);
+    return st;
+}
+
+/* phks_signature_at_vertices on resolved options and checked arguments:
+ * the points stand where from_spectrum's maxima would, with persistence
+ * 0 since no region merging ranked them. */
+static phks_status at_vertices(const phks_mesh *mesh, const phks_spectrum *spec,
+                               const phks_options *opt,
+                               const uint32_t *vertices, size_t count,
+                               phks_signature **out)
+{
+    phks__unit_mesh own = {mesh, 1, NULL};
+    phks_maximum *points = phks__malloc_array(count, sizeof *points);
+    if (!points)
+        return phks__fail_oom(AT_VERTICES);
+    for (size_t i = 0; i < count; i++)
+        points[i] = (phks_maximum){vertices[i], UINT32_MAX, 0, 0};
+    phks_status st = phks__progress(opt, PHKS_STAGE_PERSISTENCE, 0);
+    if (st == PHKS_OK && (opt->hks_scaling == PHKS_HKS_SCALING_LOCAL_AREA ||
+                          opt->matching == PHKS_MATCHING_VERIFIED)) {
+        phks__span at = {opt, PHKS_STAGE_PERSISTENCE, 0, SCALE_SPAN};
+        st = phks__unit_mesh_for(mesh, opt, at, &own);
+    }
+    if (st == PHKS_OK)
+        st = signature_of(&own, spec, opt, points, count, out);
+    phks__unit_mesh_release(&own);
+    phks__free(points);
+    return st;
+}
+
+phks_status phks_signature_at_vertices(const phks_mesh *mesh,
+                                       const phks_spectrum *spectrum,
+                                       const phks_options *options,
+                                       const uint32_t *vertices, size_t count,
+                                       phks_signature **out)
+{
+    if (out)
+        *out = NULL;
+    if (!mesh || !spectrum || !vertices || !out)
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
+                         AT_VERTICES ": NULL argument");
+    phks_options opt;
+    phks_status st = phks__options_resolve(options, &opt);
+    if (st == PHKS_OK)
+        st = check_spectrum(AT_VERTICES, mesh, spectrum, &opt);
+    if (st == PHKS_OK)
+        st = check_vertices(mesh, &opt, vertices, count);
+    if (st == PHKS_OK)
+        st = phks__progress(&opt, PHKS_STAGE_HKS, 0);
+    if (st != PHKS_OK)
+        return st;
+    return at_vertices(mesh, spectrum, &opt, vertices, count, out);
 }
 
 phks_status phks_signature_compute(const phks_mesh *mesh,

@@ -3,8 +3,9 @@
  * paper's section 5 (docs/cli.md states it in full). This file chooses the
  * models, lays out the signatures to compute, runs them on the work pool
  * and prints the report; cli_bench_item.c computes one signature,
- * cli_bench_score.c scores one seed and cli_bench_source.c the source
- * part.
+ * cli_bench_score.c scores one seed, cli_bench_source.c the source
+ * part, and cli_bench_features.c makes the comparison rows' features and
+ * descriptor.
  */
 #include "cli_bench.h"
 
@@ -18,6 +19,7 @@ static const char usage[] =
     "bench MANIFEST [--prefix P] [--classes A,B] [--max-per-class M]\n"
     "                  [--seeds N] [--cache DIR] [--queries-out TSV] [-j N]\n"
     "                  [--json] [--no-source] [--one-character A,B]\n"
+    "                  [--feature-function hks|agd|gc] [--descriptor hks|evd]\n"
     "  --prefix P          rows whose file starts with P (psb/)\n"
     "  --classes A,B       only these classes (all)\n"
     "  --max-per-class M   the first M models of each class (all)\n"
@@ -28,14 +30,38 @@ static const char usage[] =
     "  --json              the report as JSON (markdown)\n"
     "  --no-source         skip source retrieval and correspondences\n"
     "  --one-character A,B classes whose models are poses of one character\n"
-    "                      (Armadillo)";
+    "                      (Armadillo)\n"
+    "  --feature-function F  feature points at the persistent maxima of HKS,\n"
+    "                      the average geodesic distance or Gaussian\n"
+    "                      curvature (hks)\n"
+    "  --descriptor D      rank by the signatures, or by the first 50\n"
+    "                      nonzero eigenvalues (hks)";
 
 typedef struct bench_args {
     const char *manifest, *prefix, *classes, *cache, *queries_out;
-    const char *one_character;
+    const char *one_character, *feature_function, *descriptor;
     unsigned long max_per_class, seeds, workers;
     int json, no_source;
 } bench_args;
+
+/* --feature-function and --descriptor into the plan's fields; the
+ * eigenvalue descriptor has no feature points to choose. */
+static int parse_comparison(const bench_args *a, int *features, int *evd)
+{
+    *features = -1;
+    for (int f = 0; f < BENCH_FEATURES_COUNT; f++)
+        if (strcmp(a->feature_function, bench_feature_name[f]) == 0)
+            *features = f;
+    *evd = strcmp(a->descriptor, "evd") == 0;
+    if (*features < 0 || (!*evd && strcmp(a->descriptor, "hks") != 0))
+        return -1;
+    if (*evd && *features != BENCH_FEATURES_HKS) {
+        fprintf(stderr, "phks: bench: --descriptor evd ranks by eigenvalues, "
+                        "without feature points: no --feature-function\n");
+        return -1;
+    }
+    return 0;
+}
 
 static int parse_args(int argc, char **argv, bench_args *a)
 {
@@ -47,10 +73,14 @@ static int parse_args(int argc, char **argv, bench_args *a)
         {"-j", &jobs, NULL},              {"--json", NULL, &a->json},
         {"--no-source", NULL, &a->no_source},
         {"--one-character", &a->one_character, NULL},
+        {"--feature-function", &a->feature_function, NULL},
+        {"--descriptor", &a->descriptor, NULL},
     };
     int n;
     a->prefix = "psb/";
     a->one_character = "Armadillo";
+    a->feature_function = "hks";
+    a->descriptor = "hks";
     a->max_per_class = (unsigned long)-1;
     a->workers = cli_cpu_count();
     if (cli_parse(argc, argv, 1, opts, sizeof opts / sizeof opts[0], &n) ||
@@ -188,6 +218,10 @@ static void print_header(const bench_args *a, const bench_plan *p,
            phks_version_string(), a->manifest, a->prefix,
            a->classes ? a->classes : "all", per_class, p->seeds, workers);
     cli_print_options(stdout, "Options: ", &p->options);
+    printf("\nFeature function: %s; descriptor: %s.\n",
+           bench_feature_name[p->features],
+           p->evd ? "evd (the first 50 nonzero eigenvalues, L1)"
+                  : "the signatures");
     printf("\nProtocol (paper section 5): per class, models i = 0, 1, ... in "
            "manifest order; queries: i %% 4 == 3; database: the others, each "
            "entered as one version by its position j among them: j %% 3 == 0 "
@@ -262,6 +296,8 @@ static void json_header(const bench_args *a, const bench_plan *p,
     printf(", \"seed_count\": %u, \"workers\": %u,\n  \"options\": ",
            p->seeds, workers);
     cli_json_options(&p->options);
+    printf(",\n  \"feature_function\": \"%s\", \"descriptor\": \"%s\"",
+           bench_feature_name[p->features], p->evd ? "evd" : "hks");
     printf(",\n  \"models\": %zu, \"query_models\": %zu, "
            "\"queries_per_seed\": %zu, \"database_models\": %zu",
            p->model_count, queries, 3 * queries, p->model_count - queries);
@@ -330,14 +366,17 @@ int cli_bench(int argc, char **argv, const phks_options *options)
     bench_args a = {0};
     if (cli_help(argc, argv, usage))
         return 0;
-    if (parse_args(argc, argv, &a) != 0)
+    int features, evd;
+    if (parse_args(argc, argv, &a) != 0 ||
+        parse_comparison(&a, &features, &evd) != 0)
         return cli_usage(usage);
     cli_row *rows;
     size_t n;
     if (cli_manifest_read(a.manifest, &rows, &n) != 0)
         return 1;
     bench_plan p = {.seeds = (unsigned)a.seeds, .options = *options,
-                    .cache_dir = a.cache, .source = !a.no_source};
+                    .cache_dir = a.cache, .source = !a.no_source,
+                    .features = features, .evd = evd};
     p.options.threads = 1;
     FILE *qout = NULL;
     int rc = check_classes(&a, rows, n) || select_models(&a, rows, n, &p);
@@ -354,6 +393,7 @@ int cli_bench(int argc, char **argv, const phks_options *options)
         free(p.items[i].truth);
         free(p.items[i].error);
         free(p.items[i].verified);
+        free(p.items[i].evd);
     }
     free(p.items);
     free(p.models);

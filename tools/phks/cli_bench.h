@@ -2,8 +2,10 @@
  * cli_bench.h - the parts of `phks bench` (docs/cli.md, "bench"): the plan
  * of models and signatures to compute (cli_bench.c), computing one
  * signature (cli_bench_item.c), scoring and reporting the protocol
- * (cli_bench_score.c), and the source part: retrieving each version's own
- * source and checking its correspondences (cli_bench_source.c).
+ * (cli_bench_score.c), the source part: retrieving each version's own
+ * source and checking its correspondences (cli_bench_source.c), and the
+ * comparison rows: other feature functions and the eigenvalue descriptor
+ * (cli_bench_features.c).
  */
 #ifndef PHKS_CLI_BENCH_H
 #define PHKS_CLI_BENCH_H
@@ -12,6 +14,16 @@
 
 enum { KIND_COMPLETE, KIND_PARTIAL, KIND_INCOMPLETE, KIND_COUNT };
 extern const char *const bench_kind_name[KIND_COUNT];
+
+/* --feature-function: the function whose persistent maxima are the
+ * feature points. */
+enum { BENCH_FEATURES_HKS, BENCH_FEATURES_AGD, BENCH_FEATURES_GC,
+       BENCH_FEATURES_COUNT };
+extern const char *const bench_feature_name[BENCH_FEATURES_COUNT];
+/* AGD: sources of the mean distance. */
+#define BENCH_AGD_SOURCES 64
+/* --descriptor evd: the nonzero eigenvalues compared. */
+#define BENCH_EVD_COUNT 50
 
 /* Queries rank the database up to this depth (for --queries-out); Top-k
  * rates use the first 5. */
@@ -52,6 +64,8 @@ typedef struct bench_item {
     double *error;           /* per feature: its match's distance from the
                                 true point, in sqrt(source area)          */
     unsigned char *verified; /* per feature: its match is verified        */
+    double *evd;             /* --descriptor evd: BENCH_EVD_COUNT
+                                eigenvalues; NULL otherwise or failed     */
 } bench_item;
 
 typedef struct bench_plan {
@@ -63,6 +77,8 @@ typedef struct bench_plan {
     phks_options options;    /* threads = 1 per worker                     */
     const char *cache_dir;   /* NULL: no cache                             */
     int source;              /* with the source part                       */
+    int features;            /* BENCH_FEATURES_*                           */
+    int evd;                 /* rank by the eigenvalue descriptor          */
 } bench_plan;
 
 /* The sets of queries the tables report: name and one bit per kind. */
@@ -94,6 +110,38 @@ uint64_t bench_seed(unsigned seed_base, const char *name, int kind);
 /* Loads the model's mesh file. On failure *reason may be set. */
 phks_status bench_load(const bench_model *model, phks_mesh **mesh,
                        const char **reason);
+/* What one spectrum of a version gives: the signature of each feature
+ * function, and the eigenvalue descriptor. */
+typedef struct bench_outputs {
+    phks_signature *sig[BENCH_FEATURES_COUNT];
+    double *evd;  /* NULL: fewer than BENCH_EVD_COUNT nonzero eigenvalues */
+} bench_outputs;
+/* Fills out (zeroed) with the signatures of the feature functions whose
+ * bits are set in `features` and, when evd, the descriptor, from one
+ * eigen-solve; on failure nothing is left in it. */
+phks_status bench_outputs_compute(const bench_plan *plan, const phks_mesh *mesh,
+                                  unsigned features, int evd,
+                                  bench_outputs *out);
+void bench_outputs_free(bench_outputs *out);
+/* A database of eigenvalue descriptors: entries has room for every
+ * model. */
+typedef struct bench_evd_entry {
+    const double *values;
+    const char *name, *label;
+} bench_evd_entry;
+typedef struct bench_evd_db {
+    bench_evd_entry *entries;
+    size_t count;
+} bench_evd_db;
+/* Appends it (when it has its eigenvalues) to db. */
+void bench_evd_add(bench_evd_db *db, const bench_item *it, const char *name,
+                   const char *label);
+/* The BENCH_QUERY_DEPTH best entries for it, best first: of db by
+ * phks_db_query, or with --descriptor evd of evd. */
+phks_status bench_query(const bench_plan *plan, phks_db *db,
+                        const bench_evd_db *evd, const bench_item *it,
+                        phks_hit *hits, size_t *count);
+
 /* Pool task: computes plan->items[index] (ctx is the plan). */
 void bench_compute(void *ctx, size_t index);
 

@@ -62,17 +62,29 @@ static uint64_t hash_mesh(uint64_t h, const phks_mesh *mesh)
     return h;
 }
 
-static char *cache_path(const bench_plan *p, const bench_item *it,
-                        uint64_t seed, const phks_mesh *mesh)
+static uint64_t cache_key(const bench_plan *p, const bench_item *it,
+                          uint64_t seed, const phks_mesh *mesh)
 {
     uint64_t h = cli_hash_string(0, "phks-cli-cache-1");
     h = cli_hash_u64(h, phks_version_number());
     h = cli_hash_string(h, p->models[it->model].row->name);
     h = cli_hash_u64(cli_hash_u64(h, (uint64_t)it->kind), seed);
-    h = hash_mesh(hash_options(h, &p->options), mesh);
+    return hash_mesh(hash_options(h, &p->options), mesh);
+}
+
+/* The file of one output: a feature function's signature (`what` one of
+ * BENCH_FEATURES_*), or with `what` BENCH_FEATURES_COUNT the eigenvalue
+ * descriptor. HKS keeps the names of the caches written before the
+ * other outputs existed. */
+static char *cache_path(const bench_plan *p, uint64_t key, int what)
+{
+    if (what != BENCH_FEATURES_HKS)
+        key = cli_hash_string(key, what < BENCH_FEATURES_COUNT
+                                       ? bench_feature_name[what] : "evd");
     char *path = malloc(strlen(p->cache_dir) + 32);
     if (path)
-        sprintf(path, "%s/%016llx.sig", p->cache_dir, (unsigned long long)h);
+        sprintf(path, "%s/%016llx.%s", p->cache_dir, (unsigned long long)key,
+                what < BENCH_FEATURES_COUNT ? "sig" : "evd");
     return path;
 }
 
@@ -87,6 +99,26 @@ static phks_signature *cache_load(const char *path)
         sig = NULL;  /* damaged or foreign: computed again and replaced */
     free(blob);
     return sig;
+}
+
+/* The descriptor as the doubles in memory: the cache is this machine's. */
+static double *cache_load_evd(const char *path)
+{
+    unsigned char *data;
+    size_t size;
+    if (!path || cli_read_file(path, &data, &size) != 0)
+        return NULL;
+    if (size == BENCH_EVD_COUNT * sizeof(double))
+        return (double *)data;
+    free(data);
+    return NULL;
+}
+
+static void cache_store_evd(const char *path, const double *evd)
+{
+    if (path && evd &&
+        cli_write_file_atomic(path, evd, BENCH_EVD_COUNT * sizeof *evd) != 0)
+        cli_say(stderr, "phks: %s: %s (not cached)\n", path, strerror(errno));
 }
 
 static void cache_store(const char *path, const phks_signature *sig)
@@ -232,32 +264,90 @@ phks_status bench_load(const bench_model *model, phks_mesh **mesh,
     return st;
 }
 
+/* The item's outputs from the cache, all or none. */
+static void from_cache(const bench_plan *p, bench_item *it, uint64_t key)
+{
+    char *sig = cache_path(p, key, p->features);
+    char *evd = p->evd ? cache_path(p, key, BENCH_FEATURES_COUNT) : NULL;
+    it->sig = cache_load(sig);
+    it->evd = cache_load_evd(evd);
+    it->cached = it->sig && (!p->evd || it->evd);
+    if (!it->cached) {
+        phks_signature_free(it->sig);
+        free(it->evd);
+        it->sig = NULL;
+        it->evd = NULL;
+    }
+    free(sig);
+    free(evd);
+}
+
+static void to_cache(const bench_plan *p, const bench_outputs *o, uint64_t key)
+{
+    for (int f = 0; f <= BENCH_FEATURES_COUNT; f++) {
+        char *path = cache_path(p, key, f);
+        if (f < BENCH_FEATURES_COUNT && o->sig[f])
+            cache_store(path, o->sig[f]);
+        else if (f == BENCH_FEATURES_COUNT)
+            cache_store_evd(path, o->evd);
+        free(path);
+    }
+}
+
+/* The item's signature (with --descriptor evd: HKS's, and the
+ * eigenvalues). A comparison run with a cache computes and stores every
+ * output of the version's spectrum, so that the other rows' runs read
+ * them instead of solving again. */
+static phks_status compute_outputs(const bench_plan *p, bench_item *it,
+                                   const phks_mesh *mesh, uint64_t key,
+                                   const char **reason)
+{
+    int all = p->cache_dir && (p->features != BENCH_FEATURES_HKS || p->evd);
+    bench_outputs o = {{NULL}, NULL};
+    phks_status st = bench_outputs_compute(
+        p, mesh, all ? (1u << BENCH_FEATURES_COUNT) - 1 : 1u << p->features,
+        all || p->evd, &o);
+    if (st == PHKS_OK && p->cache_dir)
+        to_cache(p, &o, key);
+    if (st == PHKS_OK && p->evd && !o.evd) {
+        *reason = "fewer nonzero eigenvalues than the descriptor's 50";
+        st = PHKS_ERROR_INVALID_ARGUMENT;
+    }
+    if (st == PHKS_OK) {
+        it->sig = o.sig[p->features];
+        o.sig[p->features] = NULL;
+        if (p->evd) {
+            it->evd = o.evd;
+            o.evd = NULL;
+        }
+    }
+    bench_outputs_free(&o);
+    return st;
+}
+
 static phks_status compute(bench_plan *p, bench_item *it, uint64_t seed,
                            const char **reason)
 {
     const bench_model *model = &p->models[it->model];
     phks_mesh *src = NULL, *mesh = NULL;
     piece pc = {0};
-    char *cached = NULL;
+    uint64_t key = 0;
     phks_status st = bench_load(model, &src, reason);
     if (st == PHKS_OK && it->kind == KIND_COMPLETE)
         mesh = src;
     else if (st == PHKS_OK)
         st = make_version(src, it->kind, seed, &pc, &mesh, reason);
     if (st == PHKS_OK && p->cache_dir) {
-        cached = cache_path(p, it, seed, mesh);
-        it->sig = cache_load(cached);
-        it->cached = it->sig != NULL;
+        key = cache_key(p, it, seed, mesh);
+        from_cache(p, it, key);
     }
-    if (st == PHKS_OK && !it->sig &&
-        (st = phks_signature_compute(mesh, &p->options, &it->sig)) == PHKS_OK)
-        cache_store(cached, it->sig);
+    if (st == PHKS_OK && !it->cached)
+        st = compute_outputs(p, it, mesh, key, reason);
     if (st == PHKS_OK && model->is_query && it->kind != KIND_COMPLETE)
         count_near_cut(src, &pc, mesh, it);
     if (st == PHKS_OK && p->source && it->kind != KIND_COMPLETE &&
         !(it->truth = trace_features(&pc, mesh, it->sig)))
         st = PHKS_ERROR_OUT_OF_MEMORY;
-    free(cached);
     if (mesh != src)
         phks_mesh_free(mesh);
     phks_mesh_free(src);

@@ -22,7 +22,7 @@ size_t bench_item_of(const bench_plan *plan, size_t model, int kind,
 
 /* The database of seed: every database model's one version, in order. */
 static phks_status fill_db(const bench_plan *p, unsigned seed, phks_db *db,
-                           bench_tally *t)
+                           bench_evd_db *evd, bench_tally *t)
 {
     phks_db_entry *e = malloc((p->model_count + 1) * sizeof *e);
     if (!e)
@@ -40,6 +40,7 @@ static phks_status fill_db(const bench_plan *p, unsigned seed, phks_db *db,
         }
         t->db_entries[model->db_kind]++;
         e[n++] = (phks_db_entry){model->row->name, model->row->cls, it->sig};
+        bench_evd_add(evd, it, model->row->name, model->row->cls);
     }
     phks_status st = n ? phks_db_add_batch(db, e, n, NULL) : PHKS_OK;
     free(e);
@@ -55,16 +56,15 @@ static size_t first_rank(const phks_hit *hits, size_t count, const char *cls)
     return 0;
 }
 
-static void run_query(const bench_plan *p, phks_db *db, size_t m, int kind,
+static void run_query(const bench_plan *p, phks_db *db,
+                      const bench_evd_db *evd, size_t m, int kind,
                       unsigned seed, bench_tally *t, FILE *out)
 {
     const cli_row *row = p->models[m].row;
     const bench_item *it = &p->items[bench_item_of(p, m, kind, seed)];
     phks_hit hits[BENCH_QUERY_DEPTH];
     size_t count = 0;
-    phks_status st = it->sig ? phks_db_query(db, it->sig, BENCH_QUERY_DEPTH,
-                                             hits, &count)
-                             : PHKS_ERROR_INVALID_ARGUMENT;
+    phks_status st = bench_query(p, db, evd, it, hits, &count);
     if (it->sig && st != PHKS_OK)
         cli_say_fail(row->path, st);
     if (st != PHKS_OK) {
@@ -95,18 +95,24 @@ int bench_score_seed(const bench_plan *plan, unsigned seed, bench_tally *tally,
                      FILE *queries_out)
 {
     phks_db *db;
+    bench_evd_db evd = {NULL, 0};
     phks_status st = phks_db_open(":memory:", PHKS_DB_CREATE, &db);
+    if (st == PHKS_OK && plan->evd &&
+        !(evd.entries = malloc((plan->model_count + 1) * sizeof *evd.entries)))
+        st = PHKS_ERROR_OUT_OF_MEMORY;
     if (st == PHKS_OK)
-        st = fill_db(plan, seed, db, tally);
+        st = fill_db(plan, seed, db, &evd, tally);
     if (st != PHKS_OK) {
         cli_say_fail(":memory:", st);
         phks_db_close(db);
+        free(evd.entries);
         return 1;
     }
     for (size_t m = 0; m < plan->model_count; m++)
         for (int k = 0; plan->models[m].is_query && k < KIND_COUNT; k++)
-            run_query(plan, db, m, k, seed, tally, queries_out);
+            run_query(plan, db, &evd, m, k, seed, tally, queries_out);
     phks_db_close(db);
+    free(evd.entries);
     return 0;
 }
 

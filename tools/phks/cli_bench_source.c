@@ -14,6 +14,7 @@
 typedef struct source_ctx {
     bench_plan *plan;
     phks_db *db;
+    bench_evd_db evd;  /* --descriptor evd */
 } source_ctx;
 
 /* Distances along the source mesh from its complete signature's feature
@@ -41,7 +42,7 @@ static const double *field(fields *g, size_t feature)
     return g->of[feature] = d;
 }
 
-static phks_status fill_db(const bench_plan *p, phks_db *db)
+static phks_status fill_db(const bench_plan *p, phks_db *db, bench_evd_db *evd)
 {
     phks_db_entry *e = malloc((p->model_count + 1) * sizeof *e);
     size_t n = 0;
@@ -53,6 +54,7 @@ static phks_status fill_db(const bench_plan *p, phks_db *db)
                                                        1)];
         if (it->sig)
             e[n++] = (phks_db_entry){row->name, row->cls, it->sig};
+        bench_evd_add(evd, it, row->name, row->cls);
     }
     phks_status st = n ? phks_db_add_batch(db, e, n, NULL) : PHKS_OK;
     free(e);
@@ -61,13 +63,12 @@ static phks_status fill_db(const bench_plan *p, phks_db *db)
 
 /* Rank (1..) of model m's own entry among the hits, 0 when absent; a model
  * of a one-character class owns every entry of its class. */
-static long own_rank(const bench_plan *p, phks_db *db, size_t m,
-                     const phks_signature *query)
+static long own_rank(const source_ctx *c, size_t m, const bench_item *query)
 {
-    const bench_model *model = &p->models[m];
+    const bench_model *model = &c->plan->models[m];
     phks_hit hits[BENCH_QUERY_DEPTH];
     size_t count;
-    phks_status st = phks_db_query(db, query, BENCH_QUERY_DEPTH, hits, &count);
+    phks_status st = bench_query(c->plan, c->db, &c->evd, query, hits, &count);
     if (st != PHKS_OK) {
         cli_say_fail(model->row->path, st);
         return -1;
@@ -130,7 +131,7 @@ static void source_task(void *ctx, size_t index)
         for (int k = KIND_PARTIAL; k < KIND_COUNT; k++) {
             bench_item *v = &p->items[bench_item_of(p, index, k, s)];
             v->source_rank = v->sig && whole->sig
-                ? own_rank(p, c->db, index, v->sig) : -1;
+                ? own_rank(c, index, v) : -1;
             if (st == PHKS_OK && v->sig && v->truth &&
                 (st = match(&g, unit, v)) != PHKS_OK)
                 reason = cli_reason(model->row->path, st);
@@ -147,19 +148,25 @@ static void source_task(void *ctx, size_t index)
 
 int bench_source_run(bench_plan *plan, unsigned workers)
 {
-    source_ctx c = {plan, NULL};
+    source_ctx c = {plan, NULL, {NULL, 0}};
     phks_status st = phks_db_open(":memory:", PHKS_DB_CREATE, &c.db);
+    if (st == PHKS_OK && plan->evd &&
+        !(c.evd.entries = malloc((plan->model_count + 1) *
+                                 sizeof *c.evd.entries)))
+        st = PHKS_ERROR_OUT_OF_MEMORY;
     if (st == PHKS_OK)
-        st = fill_db(plan, c.db);
+        st = fill_db(plan, c.db, &c.evd);
     if (st != PHKS_OK) {
         cli_say_fail(":memory:", st);
         phks_db_close(c.db);
+        free(c.evd.entries);
         return 1;
     }
     cli_progress_start(plan->model_count, "sources");
     cli_pool_run(plan->model_count, workers, source_task, &c);
     cli_progress_end();
     phks_db_close(c.db);
+    free(c.evd.entries);
     return 0;
 }
 
