@@ -183,7 +183,8 @@ PG_FUNCTION_INFO_V1(phks_signature_in);
 Datum phks_signature_in(PG_FUNCTION_ARGS)
 {
     size_t size;
-    char *raw = phks_pg_hex_decode(PG_GETARG_CSTRING(0), "phks_signature", &size);
+    char *raw =
+        phks_pg_hex_decode(PG_GETARG_CSTRING(0), "phks_signature", &size);
     bytea *out = validated_copy(raw, size, "phks_signature");
     pfree(raw);
     PG_RETURN_BYTEA_P(out);
@@ -193,7 +194,8 @@ PG_FUNCTION_INFO_V1(phks_signature_out);
 Datum phks_signature_out(PG_FUNCTION_ARGS)
 {
     bytea *blob = PG_GETARG_BYTEA_PP(0);
-    PG_RETURN_CSTRING(phks_pg_hex_encode(VARDATA_ANY(blob), VARSIZE_ANY_EXHDR(blob)));
+    PG_RETURN_CSTRING(
+        phks_pg_hex_encode(VARDATA_ANY(blob), VARSIZE_ANY_EXHDR(blob)));
 }
 
 PG_FUNCTION_INFO_V1(phks_signature_recv);

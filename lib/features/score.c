@@ -4,10 +4,12 @@
  * with the nearest pairs listed beside them.
  */
 #include "features/features.h"
+#include "features/nearest_kernel.h"
 
 #include <math.h>
 #include <stdbool.h>
 #include <stdint.h>
+#include <string.h>
 
 static double l1(const double *a, const double *b, size_t n)
 {
@@ -89,11 +91,46 @@ static void put_pair(phks_correspondence *out, size_t at, size_t fa,
                                         from_a, 0};
 }
 
+/* Doubles of a and of b, padded, that the lanes of nearest_kernel.h take
+ * on the stack (15 x 15 features pad to 16 x 15). */
+#define LANE_DOUBLES 1024
+
+static size_t round_up(size_t n, size_t m)
+{
+    return (n + m - 1) / m * m;
+}
+
+/* The score of small sets through the SIMD lanes of nearest_kernel.h: a
+ * copied with rows of +infinity to whole groups of rows, b transposed into
+ * lanes. False, with nothing done, where the sets do not fit. */
+PHKS__NEAREST_CLONES
+static bool nearest_in_lanes(const double *a, size_t na, const double *b,
+                             size_t nb, size_t length, double *total)
+{
+    size_t rows = round_up(na, PHKS__NEAREST_ROWS);
+    size_t lanes = round_up(nb, PHKS__NEAREST_LANES);
+    if (rows > LANE_DOUBLES / length || lanes > LANE_DOUBLES / length)
+        return false;
+    double q[LANE_DOUBLES], e[LANE_DOUBLES], colmin[LANE_DOUBLES];
+    memcpy(q, a, na * length * sizeof *q);
+    for (size_t k = na * length; k < rows * length; k++)
+        q[k] = INFINITY;
+    for (size_t s = 0; s < length; s++)
+        for (size_t j = 0; j < lanes; j++)
+            e[s * lanes + j] = j < nb ? b[j * length + s] : INFINITY;
+    *total = phks__nearest_block(q, na, length, e, nb, lanes, colmin, false,
+                                 0);
+    return true;
+}
+
 /* The paper's score of two sets of row-major vectors, and into out (NULL:
  * not wanted) its pairs: a row per vector of a, then one per vector of b. */
 static double nearest_sum(const double *a, size_t na, const double *b,
                           size_t nb, size_t length, phks_correspondence *out)
 {
+    double lanes_total;
+    if (!out && nearest_in_lanes(a, na, b, nb, length, &lanes_total))
+        return lanes_total;
     nearest_out col[ONE_PASS_MAX];
     bool one_pass = nb <= ONE_PASS_MAX;
     for (size_t j = 0; one_pass && j < nb; j++)
@@ -119,7 +156,8 @@ static phks_status check_pair(const phks_signature *a, const phks_signature *b,
                               const char *fn)
 {
     if (!a || !b)
-        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT, "%s: NULL signature", fn);
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT, "%s: NULL signature",
+                         fn);
     char detail[128];
     if (phks__options_difference(&a->options, &b->options, false, detail,
                                  sizeof detail))
@@ -207,12 +245,18 @@ phks_status phks_score_nearest(const phks_signature *a,
     return st;
 }
 
+/* A double is not finite where its exponent bits are all ones; or-ing
+ * the tests of integers lets the compiler take them in vectors. */
 static bool all_finite(const double *v, size_t n)
 {
-    for (size_t i = 0; i < n; i++)
-        if (!isfinite(v[i]))
-            return false;
-    return true;
+    const uint64_t exponent = UINT64_C(0x7ff0000000000000);
+    uint64_t bad = 0;
+    for (size_t i = 0; i < n; i++) {
+        uint64_t bits;
+        memcpy(&bits, v + i, sizeof bits);
+        bad |= (uint64_t)((bits & exponent) == exponent);
+    }
+    return bad == 0;
 }
 
 phks_status phks_score_nearest_vectors(const double *a, size_t a_count,
@@ -224,7 +268,8 @@ phks_status phks_score_nearest_vectors(const double *a, size_t a_count,
         return phks__fail(PHKS_ERROR_INVALID_ARGUMENT, "%s: NULL argument", fn);
     if (a_count == 0 || b_count == 0 || length == 0)
         return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
-                         "%s: %zu and %zu vectors of length %zu (none may be 0)",
+                         "%s: %zu and %zu vectors of length %zu (none may "
+                         "be 0)",
                          fn, a_count, b_count, length);
     if (a_count > SIZE_MAX / length || b_count > SIZE_MAX / length)
         return phks__fail(PHKS_ERROR_INVALID_ARGUMENT, "%s: too many vectors",
