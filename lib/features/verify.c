@@ -24,6 +24,7 @@
 
 #include <float.h>
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 /* Proposals per query feature: about as many of b's 35 points as 3 of
@@ -43,6 +44,9 @@
 /* Power iterations: the leading eigenvector of a non-negative matrix of
  * a few dozen rows settles well within them. */
 #define ITERATIONS 10
+/* Rows of the matrix the power iteration sums side by side, in
+ * registers; its columns are padded to a multiple of them. */
+#define BLOCK 8
 /* Scales tried: 2^(k/4) for |k| <= SCALE_STEPS, an octave either way in
  * steps whose half (9%) is well inside DISTANCE_SIGMA. */
 #define SCALE_STEPS 4
@@ -52,39 +56,53 @@ typedef struct proposal {
     double affinity, root; /* and its square root */
 } proposal;
 
-/* A non-zero entry of the affinity matrix above its diagonal. */
-typedef struct pair_entry {
-    uint32_t p, q;
-    double w;
-} pair_entry;
+/* A proposal's place in the reading order of the leading vector. */
+typedef struct ranked {
+    double x;
+    size_t p;
+} ranked;
 
 typedef struct verify_ctx {
     const phks_signature *a, *b;
     size_t na, nb;    /* a's features, b's points                         */
-    size_t length;
+    size_t length, steps;
     double sigma;     /* vector distance scale: VECTOR_SIGMA * length     */
     double slack;     /* positional uncertainty of a feature point        */
+    double log_times[PHKS_MAX_SCALES]; /* log of b's time scales          */
     double *va, *vb;  /* vectors as compared (logarithms)                 */
     double *wa, *wb;  /* per point and scale: how far the heat stays
                          from the boundary (1: all of it)               */
     double *vb_shift; /* b's vectors read at the times shifted by scale   */
+    double *step_weight; /* na x nb x steps: wa * wb of each step, which
+                            no scale changes                           */
+    double *weight_sum;  /* na x nb: their sum                            */
     double *dist;     /* na x nb vector distances                         */
     double *trust;    /* na x nb: the weight left in dist, 0..1           */
+    double *ga, *gb;  /* a's features' and b's points' distances, square  */
+    double *gb_scaled; /* gb times the scale being tried                  */
     proposal *p;
     size_t count;
-    pair_entry *pairs; /* the matrix's non-zero entries above the diagonal */
-    size_t pair_count;
+    double *matrix;    /* count x stride, symmetric in its first count
+                          columns, zero in the padding                   */
+    size_t stride;
     double *x, *y;
+    ranked *order;
     size_t *set;
     uint32_t *trial;   /* the set of the scale being tried, per feature   */
     double scale;      /* of the set being read                           */
 } verify_ctx;
 
-/* The distance of points i != j. */
-static double geodesic(const phks_signature *s, size_t i, size_t j)
+/* The distances between s's first `points` points as a square table,
+ * read from the packed floats once rather than at every scale. */
+static void square_distances(const phks_signature *s, size_t points,
+                             double *out)
 {
-    return i < j ? s->geodesic[phks__pair_index(i, j)]
-                 : s->geodesic[phks__pair_index(j, i)];
+    for (size_t j = 0; j < points; j++) {
+        out[j * points + j] = 0;
+        for (size_t i = 0; i < j; i++)
+            out[i * points + j] = out[j * points + i] =
+                s->geodesic[phks__pair_index(i, j)];
+    }
 }
 
 /* The vectors in a form where a ratio is a difference: the local-area
@@ -117,18 +135,17 @@ static void boundary_weights(const phks_signature *s, size_t points,
  * held at the first and last scale outside them. */
 static void shift_times(const verify_ctx *c, double scale, double *out)
 {
-    const phks_options *o = &c->b->options;
+    const double *lt = c->log_times;
     size_t L = c->length;
+    double shift = 2 * log(scale);
     for (size_t s = 0; s < L; s++) {
-        double t = log(o->scales[s]) - 2 * log(scale);
+        double t = lt[s] - shift;
         size_t k = 0;
-        while (k + 2 < L && log(o->scales[k + 1]) < t)
+        while (k + 2 < L && lt[k + 1] < t)
             k++;
         double w = 0;
-        if (L > 1) {
-            double t0 = log(o->scales[k]), t1 = log(o->scales[k + 1]);
-            w = fmin(fmax((t - t0) / (t1 - t0), 0), 1);
-        }
+        if (L > 1)
+            w = fmin(fmax((t - lt[k]) / (lt[k + 1] - lt[k]), 0), 1);
         for (size_t f = 0; f < c->nb; f++) {
             const double *v = c->vb + f * L;
             out[f * L + s] = L > 1 ? (1 - w) * v[k] + w * v[k + 1] : v[0];
@@ -136,34 +153,50 @@ static void shift_times(const verify_ctx *c, double scale, double *out)
     }
 }
 
+/* What of dist(i, j) no scale changes: each step's weight, how much of
+ * both points' values there are their shapes', the weights' sum, and the
+ * share of it left (trust). */
+static void step_weights(verify_ctx *c)
+{
+    size_t L = c->length, steps = c->steps;
+    for (size_t i = 0; i < c->na; i++)
+        for (size_t j = 0; j < c->nb; j++) {
+            double *sw = c->step_weight + (i * c->nb + j) * steps, w = 0;
+            for (size_t k = 0; k < steps; k++) {
+                sw[k] = c->wa[i * L + k] * c->wb[j * L + k];
+                w += sw[k];
+            }
+            c->weight_sum[i * c->nb + j] = w;
+            c->trust[i * c->nb + j] = w / (double)steps;
+        }
+}
+
 /* dist(i, j): the L1 distance of the vectors' steps from one time scale
- * to the next, each weighted by how much of both points' values there
- * are their shapes', scaled back to the full length; the weight left, in
- * trust. Steps rather than values: a part of a shape differs from its
+ * to the next, each weighted by its step weight, scaled back to the full
+ * length. Steps rather than values: a part of a shape differs from its
  * whole by a factor in HKS A_t that hardly changes over the larger
  * scales (its mass spreads over a different total), which the steps
  * cancel. */
 static void distances(verify_ctx *c, const double *vb)
 {
-    size_t L = c->length, steps = L > 1 ? L - 1 : 1;
+    size_t L = c->length, steps = c->steps;
+    double diff[PHKS_MAX_SCALES];
     for (size_t i = 0; i < c->na; i++)
         for (size_t j = 0; j < c->nb; j++) {
             const double *x = c->va + i * L, *y = vb + j * L;
-            double s = 0, w = 0;
-            for (size_t k = 0; k < steps; k++) {
-                double wk = c->wa[i * L + k] * c->wb[j * L + k];
-                double dk = L > 1 ? (x[k + 1] - y[k + 1]) - (x[k] - y[k])
-                                  : x[0] - y[0];
-                s += wk * fabs(dk);
-                w += wk;
-            }
+            const double *sw = c->step_weight + (i * c->nb + j) * steps;
+            for (size_t k = 0; k < L; k++)
+                diff[k] = x[k] - y[k];
+            double s = 0;
+            for (size_t k = 0; k < steps; k++)
+                s += sw[k] * fabs(L > 1 ? diff[k + 1] - diff[k] : diff[0]);
+            double w = c->weight_sum[i * c->nb + j];
             c->dist[i * c->nb + j] = w > 0 ? s / w * (double)L : INFINITY;
-            c->trust[i * c->nb + j] = w / (double)steps;
         }
 }
 
 /* Each query feature's CANDIDATES nearest entry points (lower index
- * first on ties). */
+ * first on ties); the affinities of those kept only. */
 static void propose(verify_ctx *c)
 {
     size_t nb = c->nb, per = nb < CANDIDATES ? nb : CANDIDATES;
@@ -178,8 +211,12 @@ static void propose(verify_ctx *c)
             size_t at = have < per ? have++ : per - 1;
             for (; at > 0 && row[mine[at - 1].j] > row[j]; at--)
                 mine[at] = mine[at - 1];
+            mine[at].j = (uint32_t)j;
+        }
+        for (size_t m = 0; m < have; m++) {
+            uint32_t j = mine[m].j;
             double u = exp(-row[j] / c->sigma) * c->trust[i * nb + j];
-            mine[at] = (proposal){(uint32_t)i, (uint32_t)j, u, sqrt(u)};
+            mine[m] = (proposal){(uint32_t)i, j, u, sqrt(u)};
         }
         c->count += have;
     }
@@ -205,16 +242,18 @@ static double agreement(const verify_ctx *c, double ga, double gb)
 static double pair_weight(const verify_ctx *c, const proposal *x,
                           const proposal *y)
 {
-    return agreement(c, geodesic(c->a, x->i, y->i),
-                     c->scale * geodesic(c->b, x->j, y->j)) *
+    return agreement(c, c->ga[x->i * c->na + y->i],
+                     c->gb_scaled[x->j * c->nb + y->j]) *
            x->root * y->root;
 }
 
-/* The affinity matrix, kept sparse: most pairs of proposals disagree. */
+/* The affinity matrix off its diagonal, dense (most pairs of proposals
+ * agree somewhat, and the power iteration then runs down whole rows),
+ * 0 where two proposals share a point or do not agree. */
 static void affinities(verify_ctx *c)
 {
-    size_t n = c->count;
-    c->pair_count = 0;
+    size_t n = c->count, m = c->stride = (n + BLOCK - 1) / BLOCK * BLOCK;
+    memset(c->matrix, 0, n * m * sizeof *c->matrix);
     for (size_t p = 0; p < n; p++)
         for (size_t q = p + 1; q < n; q++) {
             const proposal *x = c->p + p, *y = c->p + q;
@@ -222,9 +261,28 @@ static void affinities(verify_ctx *c)
                 continue;
             double w = pair_weight(c, x, y);
             if (w > 0)
-                c->pairs[c->pair_count++] =
-                    (pair_entry){(uint32_t)p, (uint32_t)q, w};
+                c->matrix[p * m + q] = c->matrix[q * m + p] = w;
         }
+}
+
+/* y[p0 .. p0 + BLOCK) of y = A x: each its diagonal term plus the
+ * matrix's row, columns ascending (the zeros add nothing: x >= 0), the
+ * rows' sums side by side. Rows past count are left out. */
+static void multiply_block(const verify_ctx *c, size_t p0)
+{
+    size_t n = c->count;
+    double sum[BLOCK];
+    for (size_t r = 0; r < BLOCK; r++)
+        sum[r] = p0 + r < n ? c->p[p0 + r].affinity * c->x[p0 + r] : 0;
+    for (size_t q = 0; q < n; q++) {
+        /* Row q holds column q: the matrix is symmetric. */
+        const double *column = c->matrix + q * c->stride + p0;
+        double xq = c->x[q];
+        for (size_t r = 0; r < BLOCK; r++)
+            sum[r] += column[r] * xq;
+    }
+    for (size_t r = 0; r < BLOCK && p0 + r < n; r++)
+        c->y[p0 + r] = sum[r];
 }
 
 static void leading_vector(verify_ctx *c)
@@ -233,13 +291,8 @@ static void leading_vector(verify_ctx *c)
     for (size_t p = 0; p < n; p++)
         c->x[p] = 1 / sqrt((double)n);
     for (int it = 0; it < ITERATIONS; it++) {
-        for (size_t p = 0; p < n; p++)
-            c->y[p] = c->p[p].affinity * c->x[p];
-        for (size_t k = 0; k < c->pair_count; k++) {
-            const pair_entry *e = c->pairs + k;
-            c->y[e->p] += e->w * c->x[e->q];
-            c->y[e->q] += e->w * c->x[e->p];
-        }
+        for (size_t p0 = 0; p0 < n; p0 += BLOCK)
+            multiply_block(c, p0);
         double norm = 0;
         for (size_t p = 0; p < n; p++)
             norm += c->y[p] * c->y[p];
@@ -251,20 +304,27 @@ static void leading_vector(verify_ctx *c)
     }
 }
 
-/* Reads the eigenvector greedily into a one-to-one set and returns its
- * affinity; pair_of as phks__verify's. */
+/* Largest entry first, the lower index on ties. */
+static int by_reading_order(const void *x, const void *y)
+{
+    const ranked *a = x, *b = y;
+    if (a->x != b->x)
+        return a->x > b->x ? -1 : 1;
+    return (a->p > b->p) - (a->p < b->p);
+}
+
+/* Reads the eigenvector greedily, from its largest entry down, into a
+ * one-to-one set and returns its affinity; pair_of as phks__verify's. */
 static double select_set(verify_ctx *c, uint32_t *pair_of)
 {
-    size_t n = c->count, taken = 0;
+    size_t ranks = 0, taken = 0;
+    for (size_t p = 0; p < c->count; p++)
+        if (c->x[p] > 0)
+            c->order[ranks++] = (ranked){c->x[p], p};
+    qsort(c->order, ranks, sizeof *c->order, by_reading_order);
     double total = 0;
-    for (;;) {
-        size_t best = n;
-        for (size_t p = 0; p < n; p++)
-            if (c->x[p] > 0 && (best == n || c->x[p] > c->x[best]))
-                best = p;
-        if (best == n)
-            break;
-        c->x[best] = 0;
+    for (size_t r = 0; r < ranks; r++) {
+        size_t best = c->order[r].p;
         const proposal *x = c->p + best;
         double with = 0;
         bool clash = false;
@@ -295,6 +355,8 @@ static double try_scale(verify_ctx *c, double scale, uint32_t *pair_of)
         vb = c->vb_shift;
     }
     c->scale = scale;
+    for (size_t k = 0; k < c->nb * c->nb; k++)
+        c->gb_scaled[k] = scale * c->gb[k];
     distances(c, vb);
     propose(c);
     affinities(c);
@@ -304,11 +366,16 @@ static double try_scale(verify_ctx *c, double scale, uint32_t *pair_of)
     return select_set(c, pair_of);
 }
 
+/* The context's arrays, for allocate and release. */
+#define OWNED(c)                                                            \
+    {(c)->va, (c)->vb, (c)->wa, (c)->wb, (c)->vb_shift, (c)->step_weight,   \
+     (c)->weight_sum, (c)->dist, (c)->trust, (c)->ga, (c)->gb,              \
+     (c)->gb_scaled, (c)->p, (c)->matrix, (c)->x, (c)->y, (c)->order,       \
+     (c)->set, (c)->trial}
+
 static void release(verify_ctx *c)
 {
-    void *owned[] = {c->va, c->vb, c->wa, c->wb, c->vb_shift, c->dist,
-                     c->trust, c->p, c->pairs, c->x, c->y, c->set,
-                     c->trial};
+    void *owned[] = OWNED(c);
     for (size_t k = 0; k < sizeof owned / sizeof owned[0]; k++)
         phks__free(owned[k]);
 }
@@ -322,19 +389,28 @@ static phks_status allocate(verify_ctx *c)
     c->wa = phks__malloc_array(na, L * sizeof *c->wa);
     c->wb = phks__malloc_array(nb, L * sizeof *c->wb);
     c->vb_shift = phks__malloc_array(nb, L * sizeof *c->vb_shift);
+    c->step_weight =
+        phks__malloc_array(na * nb, c->steps * sizeof *c->step_weight);
+    c->weight_sum = phks__malloc_array(na, nb * sizeof *c->weight_sum);
     c->dist = phks__malloc_array(na, nb * sizeof *c->dist);
     c->trust = phks__malloc_array(na, nb * sizeof *c->trust);
+    c->ga = phks__malloc_array(na, na * sizeof *c->ga);
+    c->gb = phks__malloc_array(nb, nb * sizeof *c->gb);
+    c->gb_scaled = phks__malloc_array(nb, nb * sizeof *c->gb_scaled);
     c->p = phks__malloc_array(most, sizeof *c->p);
-    c->pairs = phks__malloc_array(most, most / 2 * sizeof *c->pairs);
+    c->matrix = phks__malloc_array(most, (most + BLOCK) * sizeof *c->matrix);
     c->x = phks__malloc_array(most, sizeof *c->x);
     c->y = phks__malloc_array(most, sizeof *c->y);
+    c->order = phks__malloc_array(most, sizeof *c->order);
     c->set = phks__malloc_array(most, sizeof *c->set);
     c->trial = phks__malloc_array(na + 1, sizeof *c->trial);
-    if (c->va && c->vb && c->wa && c->wb && c->vb_shift && c->dist &&
-        c->trust && c->p && c->pairs && c->x && c->y && c->set && c->trial)
-        return PHKS_OK;
-    release(c);
-    return phks__fail_oom("verified matching");
+    void *owned[] = OWNED(c);
+    for (size_t k = 0; k < sizeof owned / sizeof owned[0]; k++)
+        if (!owned[k]) {
+            release(c);
+            return phks__fail_oom("verified matching");
+        }
+    return PHKS_OK;
 }
 
 phks_status phks__verify(const phks_signature *a, const phks_signature *b,
@@ -346,15 +422,21 @@ phks_status phks__verify(const phks_signature *a, const phks_signature *b,
     c.na = a->count;
     c.nb = phks__signature_points(b);
     c.length = a->length;
+    c.steps = c.length > 1 ? c.length - 1 : 1;
     c.sigma = VECTOR_SIGMA * (double)c.length;
     c.slack = sqrt(4 * a->options.feature_scale * a->options.tau);
     phks_status st = allocate(&c);
     if (st != PHKS_OK)
         return st;
+    for (size_t k = 0; k < c.length; k++)
+        c.log_times[k] = log(b->options.scales[k]);
     compared_vectors(a, c.na, c.va);
     compared_vectors(b, c.nb, c.vb);
     boundary_weights(a, c.na, c.wa);
     boundary_weights(b, c.nb, c.wb);
+    step_weights(&c);
+    square_distances(a, c.na, c.ga);
+    square_distances(b, c.nb, c.gb);
     double best = 0;
     for (int k = -SCALE_STEPS; k <= SCALE_STEPS; k++) {
         double e = try_scale(&c, exp2(k / 4.0), c.trial);
