@@ -56,6 +56,11 @@ typedef struct proposal {
     double affinity, root; /* and its square root */
 } proposal;
 
+/* A pair of proposals p < q. */
+typedef struct pair_ref {
+    uint32_t p, q;
+} pair_ref;
+
 /* A proposal's place in the reading order of the leading vector. */
 typedef struct ranked {
     double x;
@@ -82,6 +87,9 @@ typedef struct verify_ctx {
     double *gb_scaled; /* gb times the scale being tried                  */
     proposal *p;
     size_t count;
+    pair_ref *pair;    /* the pairs whose matrix entry is computed        */
+    double *pair_ga, *pair_gb, *pair_e; /* their distances, disagreement */
+    size_t pair_count;
     double *matrix;    /* count x stride, symmetric in its first count
                           columns, zero in the padding                   */
     size_t stride;
@@ -222,18 +230,29 @@ static void propose(verify_ctx *c)
     }
 }
 
-/* How well two distances agree, 1 at equality (see DISTANCE_SIGMA); 0
- * beyond 3 sigma, where exp(-9) is nothing to a set's affinity and most
- * pairs of proposals lie: the matrix stays sparse. */
-static double agreement(const verify_ctx *c, double ga, double gb)
+/* How far two finite distances disagree, in DISTANCE_SIGMA. The larger
+ * one by comparison rather than fmax, a call: the two differ only in the
+ * sign of a zero, which adding slack > 0 takes away. */
+static inline double disagreement(double ga, double gb, double slack)
+{
+    double e = (ga - gb) / ((ga > gb ? ga : gb) + slack);
+    e = e > 0 ? e / 2 : e;
+    return e / DISTANCE_SIGMA;
+}
+
+/* How well two distances agree given their disagreement e, 1 at equality
+ * (see DISTANCE_SIGMA); 0 beyond 3 sigma, where exp(-9) is nothing to a
+ * set's affinity. */
+static inline double agreement_of(double ga, double gb, double e)
 {
     if (!isfinite(ga) || !isfinite(gb))
         return 0;
-    double e = (ga - gb) / (fmax(ga, gb) + c->slack);
-    if (e > 0)
-        e /= 2;
-    e /= DISTANCE_SIGMA;
     return fabs(e) < 3 ? exp(-e * e) : 0;
+}
+
+static double agreement(const verify_ctx *c, double ga, double gb)
+{
+    return agreement_of(ga, gb, disagreement(ga, gb, c->slack));
 }
 
 /* The matrix entry of two proposals that share no point, at c->scale;
@@ -247,22 +266,52 @@ static double pair_weight(const verify_ctx *c, const proposal *x,
            x->root * y->root;
 }
 
-/* The affinity matrix off its diagonal, dense (most pairs of proposals
- * agree somewhat, and the power iteration then runs down whole rows),
- * 0 where two proposals share a point or do not agree. */
-static void affinities(verify_ctx *c)
+/* The pairs of proposals that share no point, with both distances:
+ * the matrix entries to compute. */
+static void candidate_pairs(verify_ctx *c)
 {
-    size_t n = c->count, m = c->stride = (n + BLOCK - 1) / BLOCK * BLOCK;
-    memset(c->matrix, 0, n * m * sizeof *c->matrix);
+    size_t n = c->count, k = 0;
     for (size_t p = 0; p < n; p++)
         for (size_t q = p + 1; q < n; q++) {
             const proposal *x = c->p + p, *y = c->p + q;
             if (x->i == y->i || x->j == y->j || !(x->root * y->root > 0))
                 continue;
-            double w = pair_weight(c, x, y);
-            if (w > 0)
-                c->matrix[p * m + q] = c->matrix[q * m + p] = w;
+            c->pair[k] = (pair_ref){(uint32_t)p, (uint32_t)q};
+            c->pair_ga[k] = c->ga[x->i * c->na + y->i];
+            c->pair_gb[k] = c->gb_scaled[x->j * c->nb + y->j];
+            k++;
         }
+    c->pair_count = k;
+}
+
+/* A loop the compiler can run on vectors: restrict tells it the arrays
+ * do not overlap. */
+static void disagreements(const double *restrict ga, const double *restrict gb,
+                          size_t n, double slack, double *restrict e)
+{
+    for (size_t k = 0; k < n; k++)
+        e[k] = disagreement(ga[k], gb[k], slack);
+}
+
+/* The affinity matrix off its diagonal, dense (on real shapes most pairs
+ * of proposals agree somewhat, and the power iteration then runs down
+ * whole rows), 0 where two proposals share a point or do not agree. The
+ * entries are pair_weight's, computed in passes: the disagreements
+ * first, in a loop of arithmetic alone, then the exponentials. */
+static void affinities(verify_ctx *c)
+{
+    size_t n = c->count, m = c->stride = (n + BLOCK - 1) / BLOCK * BLOCK;
+    memset(c->matrix, 0, n * m * sizeof *c->matrix);
+    candidate_pairs(c);
+    disagreements(c->pair_ga, c->pair_gb, c->pair_count, c->slack,
+                  c->pair_e);
+    for (size_t k = 0; k < c->pair_count; k++) {
+        size_t p = c->pair[k].p, q = c->pair[k].q;
+        double w = agreement_of(c->pair_ga[k], c->pair_gb[k], c->pair_e[k]) *
+                   c->p[p].root * c->p[q].root;
+        if (w > 0)
+            c->matrix[p * m + q] = c->matrix[q * m + p] = w;
+    }
 }
 
 /* y[p0 .. p0 + BLOCK) of y = A x: each its diagonal term plus the
@@ -370,7 +419,8 @@ static double try_scale(verify_ctx *c, double scale, uint32_t *pair_of)
 #define OWNED(c)                                                            \
     {(c)->va, (c)->vb, (c)->wa, (c)->wb, (c)->vb_shift, (c)->step_weight,   \
      (c)->weight_sum, (c)->dist, (c)->trust, (c)->ga, (c)->gb,              \
-     (c)->gb_scaled, (c)->p, (c)->matrix, (c)->x, (c)->y, (c)->order,       \
+     (c)->gb_scaled, (c)->p, (c)->pair, (c)->pair_ga, (c)->pair_gb,          \
+     (c)->pair_e, (c)->matrix, (c)->x, (c)->y, (c)->order,       \
      (c)->set, (c)->trial}
 
 static void release(verify_ctx *c)
@@ -398,6 +448,10 @@ static phks_status allocate(verify_ctx *c)
     c->gb = phks__malloc_array(nb, nb * sizeof *c->gb);
     c->gb_scaled = phks__malloc_array(nb, nb * sizeof *c->gb_scaled);
     c->p = phks__malloc_array(most, sizeof *c->p);
+    c->pair = phks__malloc_array(most, most / 2 * sizeof *c->pair);
+    c->pair_ga = phks__malloc_array(most, most / 2 * sizeof *c->pair_ga);
+    c->pair_gb = phks__malloc_array(most, most / 2 * sizeof *c->pair_gb);
+    c->pair_e = phks__malloc_array(most, most / 2 * sizeof *c->pair_e);
     c->matrix = phks__malloc_array(most, (most + BLOCK) * sizeof *c->matrix);
     c->x = phks__malloc_array(most, sizeof *c->x);
     c->y = phks__malloc_array(most, sizeof *c->y);
