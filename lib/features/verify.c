@@ -47,6 +47,10 @@
 /* Rows of the matrix the power iteration sums side by side, in
  * registers; its columns are padded to a multiple of them. */
 #define BLOCK 8
+/* Relative error allowed for in comparing a bound with a set's affinity,
+ * both sums of at most a few hundred terms in [0, 1]: far above their
+ * rounding, far below any difference that matters. */
+#define BOUND_MARGIN 1e-9
 /* Scales tried: 2^(k/4) for |k| <= SCALE_STEPS, an octave either way in
  * steps whose half (9%) is well inside DISTANCE_SIGMA. */
 #define SCALE_STEPS 4
@@ -394,8 +398,8 @@ static double select_set(verify_ctx *c, uint32_t *pair_of)
     return total;
 }
 
-/* The verified set's affinity at one scale. */
-static double try_scale(verify_ctx *c, double scale, uint32_t *pair_of)
+/* The proposals at one scale. */
+static void propose_at(verify_ctx *c, double scale)
 {
     const double *vb = c->vb;
     if (scale != 1 &&
@@ -408,11 +412,59 @@ static double try_scale(verify_ctx *c, double scale, uint32_t *pair_of)
         c->gb_scaled[k] = scale * c->gb[k];
     distances(c, vb);
     propose(c);
+}
+
+/* At most the affinity of any set the proposals can give: a set takes
+ * one proposal per query feature and pairs that agree at most fully, so
+ * its sum of u + 2 w sqrt(u u') is at most the square of the sum, over
+ * the features, of their largest sqrt(u). */
+static double affinity_bound(const verify_ctx *c)
+{
+    double sum = 0;
+    for (size_t p = 0; p < c->count;) {
+        double most = 0;
+        size_t i = c->p[p].i;
+        for (; p < c->count && c->p[p].i == i; p++)
+            most = fmax(most, c->p[p].root);
+        sum += most;
+    }
+    return sum * sum;
+}
+
+/* The verified set's affinity at the scale proposed. */
+static double verified_set(verify_ctx *c, uint32_t *pair_of)
+{
     affinities(c);
     leading_vector(c);
     for (size_t i = 0; i < c->na; i++)
         pair_of[i] = UINT32_MAX;
     return select_set(c, pair_of);
+}
+
+/* The largest verified affinity over the scales, and its set in pair_of
+ * (may be NULL): the first scale's on ties, from the smallest up. The
+ * scales are tried from 1 outwards, the likeliest first, and one whose
+ * bound is below the best so far is passed over: its set could not be
+ * the best. The bound is the exact sum's; BOUND_MARGIN covers both sums'
+ * rounding. */
+static double best_affinity(verify_ctx *c, uint32_t *pair_of)
+{
+    double best = -1;
+    int best_k = 0;
+    for (int t = 0; t <= 2 * SCALE_STEPS; t++) {
+        int k = (t + 1) / 2 * (t % 2 ? -1 : 1);
+        propose_at(c, exp2(k / 4.0));
+        if (best >= 0 && affinity_bound(c) * (1 + BOUND_MARGIN) < best)
+            continue;
+        double e = verified_set(c, c->trial);
+        if (e > best || (e == best && k < best_k)) {
+            best = e;
+            best_k = k;
+            if (pair_of)
+                memcpy(pair_of, c->trial, c->na * sizeof *pair_of);
+        }
+    }
+    return best;
 }
 
 /* The context's arrays, for allocate and release. */
@@ -491,15 +543,7 @@ phks_status phks__verify(const phks_signature *a, const phks_signature *b,
     step_weights(&c);
     square_distances(a, c.na, c.ga);
     square_distances(b, c.nb, c.gb);
-    double best = 0;
-    for (int k = -SCALE_STEPS; k <= SCALE_STEPS; k++) {
-        double e = try_scale(&c, exp2(k / 4.0), c.trial);
-        if (e > best || k == -SCALE_STEPS) {
-            best = e;
-            if (pair_of)
-                memcpy(pair_of, c.trial, c.na * sizeof *pair_of);
-        }
-    }
+    double best = best_affinity(&c, pair_of);
     double n = (double)c.na;
     *score = nearest * (1 - fmin(best / (n * n), 1));
     release(&c);
