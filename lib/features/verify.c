@@ -55,7 +55,7 @@
 #define ITERATIONS 10
 /* Rows of the matrix the power iteration sums side by side, in
  * registers; its columns are padded to a multiple of them. */
-#define BLOCK 8
+#define BLOCK 16
 /* Relative error allowed for in comparing a bound with a set's affinity,
  * both sums of at most a few hundred terms in [0, 1]: far above their
  * rounding, far below any difference that matters. */
@@ -87,12 +87,15 @@ typedef struct verify_ctx {
     double sigma;     /* vector distance scale: VECTOR_SIGMA * length     */
     double slack;     /* positional uncertainty of a feature point        */
     double log_times[PHKS_MAX_SCALES]; /* log of b's time scales          */
-    double *va, *vb;  /* vectors as compared (logarithms)                 */
+    double *va, *vb;  /* vectors as compared (logarithms); b's by time
+                         scale, length x nb, so that distances runs
+                         along b's points                               */
     double *wa, *wb;  /* per point and scale: how far the heat stays
                          from the boundary (1: all of it)               */
-    double *vb_shift; /* b's vectors read at the times shifted by scale   */
-    double *step_weight; /* na x nb x steps: wa * wb of each step, which
+    double *vb_shift; /* vb read at the times shifted by scale            */
+    double *step_weight; /* na x steps x nb: wa * wb of each step, which
                             no scale changes                           */
+    double *sum, *last; /* nb each: distances' running sums and steps   */
     double *weight_sum;  /* na x nb: their sum                            */
     double *dist;     /* na x nb vector distances                         */
     double *trust;    /* na x nb: the weight left in dist, 0..1           */
@@ -167,10 +170,10 @@ static void shift_times(const verify_ctx *c, double scale, double *out)
         double w = 0;
         if (L > 1)
             w = fmin(fmax((t - lt[k]) / (lt[k + 1] - lt[k]), 0), 1);
-        for (size_t f = 0; f < c->nb; f++) {
-            const double *v = c->vb + f * L;
-            out[f * L + s] = L > 1 ? (1 - w) * v[k] + w * v[k + 1] : v[0];
-        }
+        const double *v = c->vb + k * c->nb;
+        for (size_t f = 0; f < c->nb; f++)
+            out[s * c->nb + f] =
+                L > 1 ? (1 - w) * v[f] + w * v[c->nb + f] : v[f];
     }
 }
 
@@ -179,41 +182,56 @@ static void shift_times(const verify_ctx *c, double scale, double *out)
  * share of it left (trust). */
 static void step_weights(verify_ctx *c)
 {
-    size_t L = c->length, steps = c->steps;
+    size_t L = c->length, steps = c->steps, nb = c->nb;
     for (size_t i = 0; i < c->na; i++)
-        for (size_t j = 0; j < c->nb; j++) {
-            double *sw = c->step_weight + (i * c->nb + j) * steps, w = 0;
+        for (size_t j = 0; j < nb; j++) {
+            double *sw = c->step_weight + i * steps * nb + j, w = 0;
             for (size_t k = 0; k < steps; k++) {
-                sw[k] = c->wa[i * L + k] * c->wb[j * L + k];
-                w += sw[k];
+                sw[k * nb] = c->wa[i * L + k] * c->wb[j * L + k];
+                w += sw[k * nb];
             }
-            c->weight_sum[i * c->nb + j] = w;
-            c->trust[i * c->nb + j] = w / (double)steps;
+            c->weight_sum[i * nb + j] = w;
+            c->trust[i * nb + j] = w / (double)steps;
         }
+}
+
+/* One step of distances for all of b's points at once: a loop the
+ * compiler runs on vectors. */
+static void add_step(size_t nb, double x, const double *restrict y,
+                     const double *restrict weight, double *restrict sum,
+                     double *restrict last)
+{
+    for (size_t j = 0; j < nb; j++) {
+        double d = x - y[j];
+        sum[j] += weight[j] * fabs(d - last[j]);
+        last[j] = d;
+    }
 }
 
 /* dist(i, j): the L1 distance of the vectors' steps from one time scale
  * to the next, each weighted by its step weight, scaled back to the full
- * length. Steps rather than values: a part of a shape differs from its
- * whole by a factor in HKS A_t that hardly changes over the larger
- * scales (its mass spreads over a different total), which the steps
- * cancel. */
+ * length (a vector of one value: the distance of the values). Steps
+ * rather than values: a part of a shape differs from its whole by a
+ * factor in HKS A_t that hardly changes over the larger scales (its mass
+ * spreads over a different total), which the steps cancel. Each sum runs
+ * over the steps in order. */
 static void distances(verify_ctx *c, const double *vb)
 {
-    size_t L = c->length, steps = c->steps;
-    double diff[PHKS_MAX_SCALES];
-    for (size_t i = 0; i < c->na; i++)
-        for (size_t j = 0; j < c->nb; j++) {
-            const double *x = c->va + i * L, *y = vb + j * L;
-            const double *sw = c->step_weight + (i * c->nb + j) * steps;
-            for (size_t k = 0; k < L; k++)
-                diff[k] = x[k] - y[k];
-            double s = 0;
-            for (size_t k = 0; k < steps; k++)
-                s += sw[k] * fabs(L > 1 ? diff[k + 1] - diff[k] : diff[0]);
-            double w = c->weight_sum[i * c->nb + j];
-            c->dist[i * c->nb + j] = w > 0 ? s / w * (double)L : INFINITY;
+    size_t L = c->length, steps = c->steps, nb = c->nb, first = L > 1;
+    for (size_t i = 0; i < c->na; i++) {
+        const double *x = c->va + i * L;
+        for (size_t j = 0; j < nb; j++) {
+            c->sum[j] = 0;
+            c->last[j] = first ? x[0] - vb[j] : 0;
         }
+        for (size_t k = 0; k < steps; k++)
+            add_step(nb, x[k + first], vb + (k + first) * nb,
+                     c->step_weight + (i * steps + k) * nb, c->sum, c->last);
+        for (size_t j = 0; j < nb; j++) {
+            double w = c->weight_sum[i * nb + j];
+            c->dist[i * nb + j] = w > 0 ? c->sum[j] / w * (double)L : INFINITY;
+        }
+    }
 }
 
 /* Each query feature's CANDIDATES nearest entry points (lower index
@@ -510,6 +528,7 @@ static double best_affinity(verify_ctx *c, uint32_t *pair_of)
 /* The context's arrays, for allocate and release. */
 #define OWNED(c)                                                            \
     {(c)->va, (c)->vb, (c)->wa, (c)->wb, (c)->vb_shift, (c)->step_weight,   \
+     (c)->sum, (c)->last,                                                   \
      (c)->weight_sum, (c)->dist, (c)->trust, (c)->ga, (c)->gb,              \
      (c)->gb_scaled, (c)->p, (c)->pair, (c)->pair_ga, (c)->pair_gb,          \
      (c)->pair_e, (c)->matrix, (c)->x, (c)->y, (c)->order,       \
@@ -533,6 +552,8 @@ static phks_status allocate(verify_ctx *c)
     c->vb_shift = phks__malloc_array(nb, L * sizeof *c->vb_shift);
     c->step_weight =
         phks__malloc_array(na * nb, c->steps * sizeof *c->step_weight);
+    c->sum = phks__malloc_array(nb, sizeof *c->sum);
+    c->last = phks__malloc_array(nb, sizeof *c->last);
     c->weight_sum = phks__malloc_array(na, nb * sizeof *c->weight_sum);
     c->dist = phks__malloc_array(na, nb * sizeof *c->dist);
     c->trust = phks__malloc_array(na, nb * sizeof *c->trust);
@@ -577,7 +598,12 @@ phks_status phks__verify(const phks_signature *a, const phks_signature *b,
     for (size_t k = 0; k < c.length; k++)
         c.log_times[k] = log(b->options.scales[k]);
     compared_vectors(a, c.na, c.va);
-    compared_vectors(b, c.nb, c.vb);
+    /* b's vectors by point into vb_shift, free until a scale is tried,
+     * then by time scale into vb. */
+    compared_vectors(b, c.nb, c.vb_shift);
+    for (size_t j = 0; j < c.nb; j++)
+        for (size_t k = 0; k < c.length; k++)
+            c.vb[k * c.nb + j] = c.vb_shift[j * c.length + k];
     boundary_weights(a, c.na, c.wa);
     boundary_weights(b, c.nb, c.wb);
     step_weights(&c);
