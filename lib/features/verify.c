@@ -298,20 +298,27 @@ static double pair_weight(const verify_ctx *c, const proposal *x,
 }
 
 /* The pairs of proposals that share no point, with both distances:
- * the matrix entries to compute. */
+ * the matrix entries to compute. A feature's proposals are consecutive:
+ * p's partners start after the last of its feature's. */
 static void candidate_pairs(verify_ctx *c)
 {
-    size_t n = c->count, k = 0;
-    for (size_t p = 0; p < n; p++)
-        for (size_t q = p + 1; q < n; q++) {
-            const proposal *x = c->p + p, *y = c->p + q;
-            if (x->i == y->i || x->j == y->j || !(x->root * y->root > 0))
+    size_t n = c->count, k = 0, next = 0;
+    for (size_t p = 0; p < n; p++) {
+        const proposal *x = c->p + p;
+        while (next < n && c->p[next].i == x->i)
+            next++;
+        const double *ga = c->ga + x->i * c->na;
+        const double *gb = c->gb_scaled + x->j * c->nb;
+        for (size_t q = next; q < n; q++) {
+            const proposal *y = c->p + q;
+            if (x->j == y->j || !(x->root * y->root > 0))
                 continue;
             c->pair[k] = (pair_ref){(uint32_t)p, (uint32_t)q};
-            c->pair_ga[k] = c->ga[x->i * c->na + y->i];
-            c->pair_gb[k] = c->gb_scaled[x->j * c->nb + y->j];
+            c->pair_ga[k] = ga[y->i];
+            c->pair_gb[k] = gb[y->j];
             k++;
         }
+    }
     c->pair_count = k;
 }
 
