@@ -80,7 +80,7 @@ typedef struct ranked {
     size_t p;
 } ranked;
 
-typedef struct verify_ctx {
+struct phks__verifier {
     const phks_signature *a, *b;
     size_t na, nb;    /* a's features, b's points                         */
     size_t length, steps;
@@ -114,7 +114,8 @@ typedef struct verify_ctx {
     size_t *set;
     uint32_t *trial;   /* the set of the scale being tried, per feature   */
     double scale;      /* of the set being read                           */
-} verify_ctx;
+};
+typedef phks__verifier verify_ctx;
 
 /* The distances between s's first `points` points as a square table,
  * read from the packed floats once rather than at every scale. */
@@ -532,25 +533,29 @@ static double best_affinity(verify_ctx *c, uint32_t *pair_of)
     return best;
 }
 
-/* The context's arrays, for allocate and release. */
+/* The verifier's arrays, for allocate and phks__verifier_free. */
 #define OWNED(c)                                                            \
     {(c)->va, (c)->vb, (c)->wa, (c)->wb, (c)->vb_shift, (c)->step_weight,   \
-     (c)->sum, (c)->last,                                                   \
-     (c)->weight_sum, (c)->dist, (c)->trust, (c)->ga, (c)->gb,              \
-     (c)->gb_scaled, (c)->p, (c)->pair, (c)->pair_ga, (c)->pair_gb,          \
-     (c)->pair_e, (c)->matrix, (c)->x, (c)->y, (c)->order,       \
+     (c)->sum, (c)->last, (c)->weight_sum, (c)->dist, (c)->trust, (c)->ga,  \
+     (c)->gb, (c)->gb_scaled, (c)->p, (c)->pair, (c)->pair_ga,              \
+     (c)->pair_gb, (c)->pair_e, (c)->matrix, (c)->x, (c)->y, (c)->order,    \
      (c)->set, (c)->trial}
 
-static void release(verify_ctx *c)
+void phks__verifier_free(phks__verifier *c)
 {
+    if (!c)
+        return;
     void *owned[] = OWNED(c);
     for (size_t k = 0; k < sizeof owned / sizeof owned[0]; k++)
         phks__free(owned[k]);
+    phks__free(c);
 }
 
-static phks_status allocate(verify_ctx *c)
+/* Room for entries of up to nb points; an entry's arrays are laid out
+ * by its own count within them. */
+static bool allocate(verify_ctx *c, size_t nb)
 {
-    size_t na = c->na, nb = c->nb, L = c->length;
+    size_t na = c->na, L = c->length;
     size_t most = na * (nb < CANDIDATES ? nb : CANDIDATES) + 1;
     c->va = phks__malloc_array(na, L * sizeof *c->va);
     c->vb = phks__malloc_array(nb, L * sizeof *c->vb);
@@ -580,45 +585,64 @@ static phks_status allocate(verify_ctx *c)
     c->trial = phks__malloc_array(na + 1, sizeof *c->trial);
     void *owned[] = OWNED(c);
     for (size_t k = 0; k < sizeof owned / sizeof owned[0]; k++)
-        if (!owned[k]) {
-            release(c);
-            return phks__fail_oom("verified matching");
-        }
+        if (!owned[k])
+            return false;
+    return true;
+}
+
+phks_status phks__verifier_new(const phks_signature *a, size_t points,
+                               phks__verifier **out)
+{
+    *out = NULL;
+    verify_ctx *c = phks__calloc(1, sizeof *c);
+    if (!c)
+        return phks__fail_oom("verified matching");
+    c->a = a;
+    c->na = a->count;
+    c->length = a->length;
+    c->steps = c->length > 1 ? c->length - 1 : 1;
+    c->sigma = VECTOR_SIGMA * (double)c->length;
+    c->slack = sqrt(4 * a->options.feature_scale * a->options.tau);
+    if (!allocate(c, points)) {
+        phks__verifier_free(c);
+        return phks__fail_oom("verified matching");
+    }
+    compared_vectors(a, c->na, c->va);
+    boundary_weights(a, c->na, c->wa);
+    square_distances(a, c->na, c->ga);
+    *out = c;
     return PHKS_OK;
+}
+
+void phks__verifier_run(phks__verifier *c, const phks_signature *b,
+                        double nearest, uint32_t *pair_of, double *score)
+{
+    c->b = b;
+    c->nb = phks__signature_points(b);
+    for (size_t k = 0; k < c->length; k++)
+        c->log_times[k] = log(b->options.scales[k]);
+    /* b's vectors by point into vb_shift, free until a scale is tried,
+     * then by time scale into vb. */
+    compared_vectors(b, c->nb, c->vb_shift);
+    for (size_t j = 0; j < c->nb; j++)
+        for (size_t k = 0; k < c->length; k++)
+            c->vb[k * c->nb + j] = c->vb_shift[j * c->length + k];
+    boundary_weights(b, c->nb, c->wb);
+    step_weights(c);
+    square_distances(b, c->nb, c->gb);
+    double best = best_affinity(c, pair_of);
+    double n = (double)c->na;
+    *score = nearest * (1 - fmin(best / (n * n), 1));
 }
 
 phks_status phks__verify(const phks_signature *a, const phks_signature *b,
                          double nearest, uint32_t *pair_of, double *score)
 {
-    verify_ctx c = {0};
-    c.a = a;
-    c.b = b;
-    c.na = a->count;
-    c.nb = phks__signature_points(b);
-    c.length = a->length;
-    c.steps = c.length > 1 ? c.length - 1 : 1;
-    c.sigma = VECTOR_SIGMA * (double)c.length;
-    c.slack = sqrt(4 * a->options.feature_scale * a->options.tau);
-    phks_status st = allocate(&c);
+    phks__verifier *v;
+    phks_status st = phks__verifier_new(a, phks__signature_points(b), &v);
     if (st != PHKS_OK)
         return st;
-    for (size_t k = 0; k < c.length; k++)
-        c.log_times[k] = log(b->options.scales[k]);
-    compared_vectors(a, c.na, c.va);
-    /* b's vectors by point into vb_shift, free until a scale is tried,
-     * then by time scale into vb. */
-    compared_vectors(b, c.nb, c.vb_shift);
-    for (size_t j = 0; j < c.nb; j++)
-        for (size_t k = 0; k < c.length; k++)
-            c.vb[k * c.nb + j] = c.vb_shift[j * c.length + k];
-    boundary_weights(a, c.na, c.wa);
-    boundary_weights(b, c.nb, c.wb);
-    step_weights(&c);
-    square_distances(a, c.na, c.ga);
-    square_distances(b, c.nb, c.gb);
-    double best = best_affinity(&c, pair_of);
-    double n = (double)c.na;
-    *score = nearest * (1 - fmin(best / (n * n), 1));
-    release(&c);
+    phks__verifier_run(v, b, nearest, pair_of, score);
+    phks__verifier_free(v);
     return PHKS_OK;
 }
