@@ -96,7 +96,7 @@ struct phks__verifier {
     double *step_weight; /* na x steps x nb: wa * wb of each step, which
                             no scale changes                           */
     double *sum, *last; /* nb each: distances' running sums and steps   */
-    double *weight_sum;  /* na x nb: their sum                            */
+    double *weight_sum;  /* na x nb: the step weights' sum                */
     double *dist;     /* na x nb vector distances                         */
     double *trust;    /* na x nb: the weight left in dist, 0..1           */
     double *ga, *gb;  /* a's features' and b's points' distances, square  */
@@ -115,7 +115,6 @@ struct phks__verifier {
     uint32_t *trial;   /* the set of the scale being tried, per feature   */
     double scale;      /* of the set being read                           */
 };
-typedef phks__verifier verify_ctx;
 
 /* The distances between s's first `points` points as a square table,
  * read from the packed floats once rather than at every scale. */
@@ -158,7 +157,7 @@ static void boundary_weights(const phks_signature *s, size_t points,
 
 /* b's vectors read at times t / s^2 by linear interpolation in log t,
  * held at the first and last scale outside them. */
-static void shift_times(const verify_ctx *c, double scale, double *out)
+static void shift_times(const phks__verifier *c, double scale, double *out)
 {
     const double *lt = c->log_times;
     size_t L = c->length;
@@ -181,7 +180,7 @@ static void shift_times(const verify_ctx *c, double scale, double *out)
 /* What of dist(i, j) no scale changes: each step's weight, how much of
  * both points' values there are their shapes', the weights' sum, and the
  * share of it left (trust). */
-static void step_weights(verify_ctx *c)
+static void step_weights(phks__verifier *c)
 {
     size_t L = c->length, steps = c->steps, nb = c->nb;
     for (size_t i = 0; i < c->na; i++)
@@ -216,7 +215,7 @@ static void add_step(size_t nb, double x, const double *restrict y,
  * factor in HKS A_t that hardly changes over the larger scales (its mass
  * spreads over a different total), which the steps cancel. Each sum runs
  * over the steps in order. */
-static void distances(verify_ctx *c, const double *vb)
+static void distances(phks__verifier *c, const double *vb)
 {
     size_t L = c->length, steps = c->steps, nb = c->nb, first = L > 1;
     for (size_t i = 0; i < c->na; i++) {
@@ -237,7 +236,7 @@ static void distances(verify_ctx *c, const double *vb)
 
 /* Each query feature's CANDIDATES nearest entry points (lower index
  * first on ties); the affinities of those kept only. */
-static void propose(verify_ctx *c)
+static void propose(phks__verifier *c)
 {
     size_t nb = c->nb, per = nb < CANDIDATES ? nb : CANDIDATES;
     c->count = 0;
@@ -282,15 +281,15 @@ static inline double agreement_of(double ga, double gb, double e)
     return fabs(e) < 3 ? exp(-e * e) : 0;
 }
 
-static double agreement(const verify_ctx *c, double ga, double gb)
+static double agreement(const phks__verifier *c, double ga, double gb)
 {
     return agreement_of(ga, gb, disagreement(ga, gb, c->slack));
 }
 
-/* The matrix entry of two proposals that share no point, at c->scale;
- * the verified set's members are few, and select_set computes theirs
- * again rather than search the sparse matrix. */
-static double pair_weight(const verify_ctx *c, const proposal *x,
+/* The matrix entry of two proposals that share no point, at c->scale,
+ * for select_set: the matrix holds the product of the roots in the order
+ * of the proposals' indices, and the set's members are few. */
+static double pair_weight(const phks__verifier *c, const proposal *x,
                           const proposal *y)
 {
     return agreement(c, c->ga[x->i * c->na + y->i],
@@ -301,7 +300,7 @@ static double pair_weight(const verify_ctx *c, const proposal *x,
 /* The pairs of proposals that share no point, with both distances:
  * the matrix entries to compute. A feature's proposals are consecutive:
  * p's partners start after the last of its feature's. */
-static void candidate_pairs(verify_ctx *c)
+static void candidate_pairs(phks__verifier *c)
 {
     size_t n = c->count, k = 0, next = 0;
     for (size_t p = 0; p < n; p++) {
@@ -337,7 +336,8 @@ static void disagreements(const double *ga, const double *gb, size_t n,
                   half = _mm_set1_pd(0.5), sigma = _mm_set1_pd(DISTANCE_SIGMA);
     for (; k + 2 <= n; k += 2) {
         __m128d a = _mm_loadu_pd(ga + k), b = _mm_loadu_pd(gb + k);
-        __m128d x = _mm_div_pd(_mm_sub_pd(a, b), _mm_add_pd(_mm_max_pd(a, b), s));
+        __m128d x = _mm_div_pd(_mm_sub_pd(a, b),
+                               _mm_add_pd(_mm_max_pd(a, b), s));
         __m128d positive = _mm_cmpgt_pd(x, zero);
         x = _mm_or_pd(_mm_and_pd(positive, _mm_mul_pd(x, half)),
                       _mm_andnot_pd(positive, x));
@@ -353,7 +353,7 @@ static void disagreements(const double *ga, const double *gb, size_t n,
  * whole rows), 0 where two proposals share a point or do not agree. The
  * entries are pair_weight's, computed in passes: the disagreements
  * first, in a loop of arithmetic alone, then the exponentials. */
-static void affinities(verify_ctx *c)
+static void affinities(phks__verifier *c)
 {
     size_t n = c->count, m = c->stride = (n + BLOCK - 1) / BLOCK * BLOCK;
     memset(c->matrix, 0, n * m * sizeof *c->matrix);
@@ -372,7 +372,7 @@ static void affinities(verify_ctx *c)
 /* y[p0 .. p0 + BLOCK) of y = A x: each its diagonal term plus the
  * matrix's row, columns ascending (the zeros add nothing: x >= 0), the
  * rows' sums side by side. Rows past count are left out. */
-static void multiply_block(const verify_ctx *c, size_t p0)
+static void multiply_block(const phks__verifier *c, size_t p0)
 {
     size_t n = c->count;
     double sum[BLOCK];
@@ -404,7 +404,7 @@ static void multiply_block(const verify_ctx *c, size_t p0)
         c->y[p0 + r] = sum[r];
 }
 
-static void leading_vector(verify_ctx *c)
+static void leading_vector(phks__verifier *c)
 {
     size_t n = c->count;
     for (size_t p = 0; p < n; p++)
@@ -434,7 +434,7 @@ static int by_reading_order(const void *x, const void *y)
 
 /* Reads the eigenvector greedily, from its largest entry down, into a
  * one-to-one set and returns its affinity; pair_of as phks__verify's. */
-static double select_set(verify_ctx *c, uint32_t *pair_of)
+static double select_set(phks__verifier *c, uint32_t *pair_of)
 {
     size_t ranks = 0, taken = 0;
     for (size_t p = 0; p < c->count; p++)
@@ -465,7 +465,7 @@ static double select_set(verify_ctx *c, uint32_t *pair_of)
 }
 
 /* The proposals at one scale. */
-static void propose_at(verify_ctx *c, double scale)
+static void propose_at(phks__verifier *c, double scale)
 {
     const double *vb = c->vb;
     if (scale != 1 &&
@@ -484,7 +484,7 @@ static void propose_at(verify_ctx *c, double scale)
  * one proposal per query feature and pairs that agree at most fully, so
  * its sum of u + 2 w sqrt(u u') is at most the square of the sum, over
  * the features, of their largest sqrt(u). */
-static double affinity_bound(const verify_ctx *c)
+static double affinity_bound(const phks__verifier *c)
 {
     double sum = 0;
     for (size_t p = 0; p < c->count;) {
@@ -498,7 +498,7 @@ static double affinity_bound(const verify_ctx *c)
 }
 
 /* The verified set's affinity at the scale proposed. */
-static double verified_set(verify_ctx *c, uint32_t *pair_of)
+static double verified_set(phks__verifier *c, uint32_t *pair_of)
 {
     affinities(c);
     leading_vector(c);
@@ -513,7 +513,7 @@ static double verified_set(verify_ctx *c, uint32_t *pair_of)
  * bound is below the best so far is passed over: its set could not be
  * the best. The bound is the exact sum's; BOUND_MARGIN covers both sums'
  * rounding. */
-static double best_affinity(verify_ctx *c, uint32_t *pair_of)
+static double best_affinity(phks__verifier *c, uint32_t *pair_of)
 {
     double best = -1;
     int best_k = 0;
@@ -553,7 +553,7 @@ void phks__verifier_free(phks__verifier *c)
 
 /* Room for entries of up to nb points; an entry's arrays are laid out
  * by its own count within them. */
-static bool allocate(verify_ctx *c, size_t nb)
+static bool allocate(phks__verifier *c, size_t nb)
 {
     size_t na = c->na, L = c->length;
     size_t most = na * (nb < CANDIDATES ? nb : CANDIDATES) + 1;
@@ -594,7 +594,7 @@ phks_status phks__verifier_new(const phks_signature *a, size_t points,
                                phks__verifier **out)
 {
     *out = NULL;
-    verify_ctx *c = phks__calloc(1, sizeof *c);
+    phks__verifier *c = phks__calloc(1, sizeof *c);
     if (!c)
         return phks__fail_oom("verified matching");
     c->a = a;
