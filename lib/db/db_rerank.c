@@ -8,8 +8,8 @@
  * one), then verified on several threads, each with its own verifier
  * made beforehand on this thread: each entry's score is its own, so the
  * ranking does not depend on which thread computed what, and nothing is
- * allocated off this thread (a host's allocator sees the same calls in
- * the same order whatever the thread count).
+ * allocated off this thread: the allocator is called in an order that
+ * does not depend on the threads' timing.
  */
 #include "db/db_cache.h"
 
