@@ -94,4 +94,15 @@ phks_status phks__signature_layout(const phks__unit_mesh *um,
  * carry their layouts. */
 phks_status phks__verify(const phks_signature *a, const phks_signature *b,
                          double nearest, uint32_t *pair_of, double *score);
+/* The same for one query against many entries: a verifier holds the
+ * query's share of the work and room for entries of up to `points`
+ * points, so that phks__verifier_run allocates nothing and may run on
+ * any thread (one verifier per thread; the scores do not depend on what
+ * it verified before). Fails only for want of memory. */
+typedef struct phks__verifier phks__verifier;
+phks_status phks__verifier_new(const phks_signature *a, size_t points,
+                               phks__verifier **out);
+void phks__verifier_run(phks__verifier *v, const phks_signature *b,
+                        double nearest, uint32_t *pair_of, double *score);
+void phks__verifier_free(phks__verifier *v);
 #endif /* PHKS_FEATURES_H */

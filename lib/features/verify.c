@@ -24,7 +24,17 @@
 
 #include <float.h>
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
+
+/* SSE2 for the two loops that run longest (below); PHKS_NO_SIMD builds
+ * the portable loops alone, to test them (core/simd.h). */
+#if defined(__SSE2__) && !defined(PHKS_NO_SIMD)
+#include <emmintrin.h>
+#define VERIFY_SSE2 1
+#else
+#define VERIFY_SSE2 0
+#endif
 
 /* Proposals per query feature: about as many of b's 35 points as 3 of
  * its 15 features. */
@@ -43,6 +53,13 @@
 /* Power iterations: the leading eigenvector of a non-negative matrix of
  * a few dozen rows settles well within them. */
 #define ITERATIONS 10
+/* Rows of the matrix the power iteration sums side by side, in
+ * registers; its columns are padded to a multiple of them. */
+#define BLOCK 16
+/* Relative error allowed for in comparing a bound with a set's affinity,
+ * both sums of at most a few hundred terms in [0, 1]: far above their
+ * rounding, far below any difference that matters. */
+#define BOUND_MARGIN 1e-9
 /* Scales tried: 2^(k/4) for |k| <= SCALE_STEPS, an octave either way in
  * steps whose half (9%) is well inside DISTANCE_SIGMA. */
 #define SCALE_STEPS 4
@@ -52,39 +69,64 @@ typedef struct proposal {
     double affinity, root; /* and its square root */
 } proposal;
 
-/* A non-zero entry of the affinity matrix above its diagonal. */
-typedef struct pair_entry {
+/* A pair of proposals p < q. */
+typedef struct pair_ref {
     uint32_t p, q;
-    double w;
-} pair_entry;
+} pair_ref;
 
-typedef struct verify_ctx {
+/* A proposal's place in the reading order of the leading vector. */
+typedef struct ranked {
+    double x;
+    size_t p;
+} ranked;
+
+struct phks__verifier {
     const phks_signature *a, *b;
     size_t na, nb;    /* a's features, b's points                         */
-    size_t length;
+    size_t length, steps;
     double sigma;     /* vector distance scale: VECTOR_SIGMA * length     */
     double slack;     /* positional uncertainty of a feature point        */
-    double *va, *vb;  /* vectors as compared (logarithms)                 */
+    double log_times[PHKS_MAX_SCALES]; /* log of b's time scales          */
+    double *va, *vb;  /* vectors as compared (logarithms); b's by time
+                         scale, length x nb, so that distances runs
+                         along b's points                               */
     double *wa, *wb;  /* per point and scale: how far the heat stays
                          from the boundary (1: all of it)               */
-    double *vb_shift; /* b's vectors read at the times shifted by scale   */
+    double *vb_shift; /* vb read at the times shifted by scale            */
+    double *step_weight; /* na x steps x nb: wa * wb of each step, which
+                            no scale changes                           */
+    double *sum, *last; /* nb each: distances' running sums and steps   */
+    double *weight_sum;  /* na x nb: the step weights' sum                */
     double *dist;     /* na x nb vector distances                         */
     double *trust;    /* na x nb: the weight left in dist, 0..1           */
+    double *ga, *gb;  /* a's features' and b's points' distances, square  */
+    double *gb_scaled; /* gb times the scale being tried                  */
     proposal *p;
     size_t count;
-    pair_entry *pairs; /* the matrix's non-zero entries above the diagonal */
+    pair_ref *pair;    /* the pairs whose matrix entry is computed        */
+    double *pair_ga, *pair_gb, *pair_e; /* their distances, disagreement */
     size_t pair_count;
+    double *matrix;    /* count x stride, symmetric in its first count
+                          columns, zero in the padding                   */
+    size_t stride;
     double *x, *y;
+    ranked *order;
     size_t *set;
     uint32_t *trial;   /* the set of the scale being tried, per feature   */
     double scale;      /* of the set being read                           */
-} verify_ctx;
+};
 
-/* The distance of points i != j. */
-static double geodesic(const phks_signature *s, size_t i, size_t j)
+/* The distances between s's first `points` points as a square table,
+ * read from the packed floats once rather than at every scale. */
+static void square_distances(const phks_signature *s, size_t points,
+                             double *out)
 {
-    return i < j ? s->geodesic[phks__pair_index(i, j)]
-                 : s->geodesic[phks__pair_index(j, i)];
+    for (size_t j = 0; j < points; j++) {
+        out[j * points + j] = 0;
+        for (size_t i = 0; i < j; i++)
+            out[i * points + j] = out[j * points + i] =
+                s->geodesic[phks__pair_index(i, j)];
+    }
 }
 
 /* The vectors in a form where a ratio is a difference: the local-area
@@ -115,56 +157,86 @@ static void boundary_weights(const phks_signature *s, size_t points,
 
 /* b's vectors read at times t / s^2 by linear interpolation in log t,
  * held at the first and last scale outside them. */
-static void shift_times(const verify_ctx *c, double scale, double *out)
+static void shift_times(const phks__verifier *c, double scale, double *out)
 {
-    const phks_options *o = &c->b->options;
+    const double *lt = c->log_times;
     size_t L = c->length;
+    double shift = 2 * log(scale);
     for (size_t s = 0; s < L; s++) {
-        double t = log(o->scales[s]) - 2 * log(scale);
+        double t = lt[s] - shift;
         size_t k = 0;
-        while (k + 2 < L && log(o->scales[k + 1]) < t)
+        while (k + 2 < L && lt[k + 1] < t)
             k++;
         double w = 0;
-        if (L > 1) {
-            double t0 = log(o->scales[k]), t1 = log(o->scales[k + 1]);
-            w = fmin(fmax((t - t0) / (t1 - t0), 0), 1);
+        if (L > 1)
+            w = fmin(fmax((t - lt[k]) / (lt[k + 1] - lt[k]), 0), 1);
+        const double *v = c->vb + k * c->nb;
+        for (size_t f = 0; f < c->nb; f++)
+            out[s * c->nb + f] =
+                L > 1 ? (1 - w) * v[f] + w * v[c->nb + f] : v[f];
+    }
+}
+
+/* What of dist(i, j) no scale changes: each step's weight, how much of
+ * both points' values there are their shapes', the weights' sum, and the
+ * share of it left (trust). */
+static void step_weights(phks__verifier *c)
+{
+    size_t L = c->length, steps = c->steps, nb = c->nb;
+    for (size_t i = 0; i < c->na; i++)
+        for (size_t j = 0; j < nb; j++) {
+            double *sw = c->step_weight + i * steps * nb + j, w = 0;
+            for (size_t k = 0; k < steps; k++) {
+                sw[k * nb] = c->wa[i * L + k] * c->wb[j * L + k];
+                w += sw[k * nb];
+            }
+            c->weight_sum[i * nb + j] = w;
+            c->trust[i * nb + j] = w / (double)steps;
         }
-        for (size_t f = 0; f < c->nb; f++) {
-            const double *v = c->vb + f * L;
-            out[f * L + s] = L > 1 ? (1 - w) * v[k] + w * v[k + 1] : v[0];
-        }
+}
+
+/* One step of distances for all of b's points at once: a loop the
+ * compiler runs on vectors. */
+static void add_step(size_t nb, double x, const double *restrict y,
+                     const double *restrict weight, double *restrict sum,
+                     double *restrict last)
+{
+    for (size_t j = 0; j < nb; j++) {
+        double d = x - y[j];
+        sum[j] += weight[j] * fabs(d - last[j]);
+        last[j] = d;
     }
 }
 
 /* dist(i, j): the L1 distance of the vectors' steps from one time scale
- * to the next, each weighted by how much of both points' values there
- * are their shapes', scaled back to the full length; the weight left, in
- * trust. Steps rather than values: a part of a shape differs from its
- * whole by a factor in HKS A_t that hardly changes over the larger
- * scales (its mass spreads over a different total), which the steps
- * cancel. */
-static void distances(verify_ctx *c, const double *vb)
+ * to the next, each weighted by its step weight, scaled back to the full
+ * length (a vector of one value: the distance of the values). Steps
+ * rather than values: a part of a shape differs from its whole by a
+ * factor in HKS A_t that hardly changes over the larger scales (its mass
+ * spreads over a different total), which the steps cancel. Each sum runs
+ * over the steps in order. */
+static void distances(phks__verifier *c, const double *vb)
 {
-    size_t L = c->length, steps = L > 1 ? L - 1 : 1;
-    for (size_t i = 0; i < c->na; i++)
-        for (size_t j = 0; j < c->nb; j++) {
-            const double *x = c->va + i * L, *y = vb + j * L;
-            double s = 0, w = 0;
-            for (size_t k = 0; k < steps; k++) {
-                double wk = c->wa[i * L + k] * c->wb[j * L + k];
-                double dk = L > 1 ? (x[k + 1] - y[k + 1]) - (x[k] - y[k])
-                                  : x[0] - y[0];
-                s += wk * fabs(dk);
-                w += wk;
-            }
-            c->dist[i * c->nb + j] = w > 0 ? s / w * (double)L : INFINITY;
-            c->trust[i * c->nb + j] = w / (double)steps;
+    size_t L = c->length, steps = c->steps, nb = c->nb, first = L > 1;
+    for (size_t i = 0; i < c->na; i++) {
+        const double *x = c->va + i * L;
+        for (size_t j = 0; j < nb; j++) {
+            c->sum[j] = 0;
+            c->last[j] = first ? x[0] - vb[j] : 0;
         }
+        for (size_t k = 0; k < steps; k++)
+            add_step(nb, x[k + first], vb + (k + first) * nb,
+                     c->step_weight + (i * steps + k) * nb, c->sum, c->last);
+        for (size_t j = 0; j < nb; j++) {
+            double w = c->weight_sum[i * nb + j];
+            c->dist[i * nb + j] = w > 0 ? c->sum[j] / w * (double)L : INFINITY;
+        }
+    }
 }
 
 /* Each query feature's CANDIDATES nearest entry points (lower index
- * first on ties). */
-static void propose(verify_ctx *c)
+ * first on ties); the affinities of those kept only. */
+static void propose(phks__verifier *c)
 {
     size_t nb = c->nb, per = nb < CANDIDATES ? nb : CANDIDATES;
     c->count = 0;
@@ -178,68 +250,168 @@ static void propose(verify_ctx *c)
             size_t at = have < per ? have++ : per - 1;
             for (; at > 0 && row[mine[at - 1].j] > row[j]; at--)
                 mine[at] = mine[at - 1];
+            mine[at].j = (uint32_t)j;
+        }
+        for (size_t m = 0; m < have; m++) {
+            uint32_t j = mine[m].j;
             double u = exp(-row[j] / c->sigma) * c->trust[i * nb + j];
-            mine[at] = (proposal){(uint32_t)i, (uint32_t)j, u, sqrt(u)};
+            mine[m] = (proposal){(uint32_t)i, j, u, sqrt(u)};
         }
         c->count += have;
     }
 }
 
-/* How well two distances agree, 1 at equality (see DISTANCE_SIGMA); 0
- * beyond 3 sigma, where exp(-9) is nothing to a set's affinity and most
- * pairs of proposals lie: the matrix stays sparse. */
-static double agreement(const verify_ctx *c, double ga, double gb)
+/* How far two finite distances disagree, in DISTANCE_SIGMA. The larger
+ * one by comparison rather than fmax, a call: the two differ only in the
+ * sign of a zero, which adding slack > 0 takes away. */
+static inline double disagreement(double ga, double gb, double slack)
+{
+    double e = (ga - gb) / ((ga > gb ? ga : gb) + slack);
+    e = e > 0 ? e / 2 : e;
+    return e / DISTANCE_SIGMA;
+}
+
+/* How well two distances agree given their disagreement e, 1 at equality
+ * (see DISTANCE_SIGMA); 0 beyond 3 sigma, where exp(-9) is nothing to a
+ * set's affinity. */
+static inline double agreement_of(double ga, double gb, double e)
 {
     if (!isfinite(ga) || !isfinite(gb))
         return 0;
-    double e = (ga - gb) / (fmax(ga, gb) + c->slack);
-    if (e > 0)
-        e /= 2;
-    e /= DISTANCE_SIGMA;
     return fabs(e) < 3 ? exp(-e * e) : 0;
 }
 
-/* The matrix entry of two proposals that share no point, at c->scale;
- * the verified set's members are few, and select_set computes theirs
- * again rather than search the sparse matrix. */
-static double pair_weight(const verify_ctx *c, const proposal *x,
+static double agreement(const phks__verifier *c, double ga, double gb)
+{
+    return agreement_of(ga, gb, disagreement(ga, gb, c->slack));
+}
+
+/* The matrix entry of two proposals that share no point, at c->scale,
+ * for select_set: the matrix holds the product of the roots in the order
+ * of the proposals' indices, and the set's members are few. */
+static double pair_weight(const phks__verifier *c, const proposal *x,
                           const proposal *y)
 {
-    return agreement(c, geodesic(c->a, x->i, y->i),
-                     c->scale * geodesic(c->b, x->j, y->j)) *
+    return agreement(c, c->ga[x->i * c->na + y->i],
+                     c->gb_scaled[x->j * c->nb + y->j]) *
            x->root * y->root;
 }
 
-/* The affinity matrix, kept sparse: most pairs of proposals disagree. */
-static void affinities(verify_ctx *c)
+/* The pairs of proposals that share no point, with both distances:
+ * the matrix entries to compute. A feature's proposals are consecutive:
+ * p's partners start after the last of its feature's. */
+static void candidate_pairs(phks__verifier *c)
 {
-    size_t n = c->count;
-    c->pair_count = 0;
-    for (size_t p = 0; p < n; p++)
-        for (size_t q = p + 1; q < n; q++) {
-            const proposal *x = c->p + p, *y = c->p + q;
-            if (x->i == y->i || x->j == y->j || !(x->root * y->root > 0))
+    size_t n = c->count, k = 0, next = 0;
+    for (size_t p = 0; p < n; p++) {
+        const proposal *x = c->p + p;
+        while (next < n && c->p[next].i == x->i)
+            next++;
+        const double *ga = c->ga + x->i * c->na;
+        const double *gb = c->gb_scaled + x->j * c->nb;
+        for (size_t q = next; q < n; q++) {
+            const proposal *y = c->p + q;
+            if (x->j == y->j || !(x->root * y->root > 0))
                 continue;
-            double w = pair_weight(c, x, y);
-            if (w > 0)
-                c->pairs[c->pair_count++] =
-                    (pair_entry){(uint32_t)p, (uint32_t)q, w};
+            c->pair[k] = (pair_ref){(uint32_t)p, (uint32_t)q};
+            c->pair_ga[k] = ga[y->i];
+            c->pair_gb[k] = gb[y->j];
+            k++;
         }
+    }
+    c->pair_count = k;
 }
 
-static void leading_vector(verify_ctx *c)
+/* disagreement() of each pair, two at a time where SSE2 is (every
+ * x86-64): the same operations lane by lane, so the same bits (maxpd is
+ * a > b ? a : b, halving is multiplying by 0.5). The compiler does not
+ * vectorise the loop itself while floating-point traps must stay as
+ * written. */
+static void disagreements(const double *ga, const double *gb, size_t n,
+                          double slack, double *e)
+{
+    size_t k = 0;
+#if VERIFY_SSE2
+    const __m128d s = _mm_set1_pd(slack), zero = _mm_setzero_pd(),
+                  half = _mm_set1_pd(0.5), sigma = _mm_set1_pd(DISTANCE_SIGMA);
+    for (; k + 2 <= n; k += 2) {
+        __m128d a = _mm_loadu_pd(ga + k), b = _mm_loadu_pd(gb + k);
+        __m128d x = _mm_div_pd(_mm_sub_pd(a, b),
+                               _mm_add_pd(_mm_max_pd(a, b), s));
+        __m128d positive = _mm_cmpgt_pd(x, zero);
+        x = _mm_or_pd(_mm_and_pd(positive, _mm_mul_pd(x, half)),
+                      _mm_andnot_pd(positive, x));
+        _mm_storeu_pd(e + k, _mm_div_pd(x, sigma));
+    }
+#endif
+    for (; k < n; k++)
+        e[k] = disagreement(ga[k], gb[k], slack);
+}
+
+/* The affinity matrix off its diagonal, dense (on real shapes most pairs
+ * of proposals agree somewhat, and the power iteration then runs down
+ * whole rows), 0 where two proposals share a point or do not agree. The
+ * entries are pair_weight's, computed in passes: the disagreements
+ * first, in a loop of arithmetic alone, then the exponentials. */
+static void affinities(phks__verifier *c)
+{
+    size_t n = c->count, m = c->stride = (n + BLOCK - 1) / BLOCK * BLOCK;
+    memset(c->matrix, 0, n * m * sizeof *c->matrix);
+    candidate_pairs(c);
+    disagreements(c->pair_ga, c->pair_gb, c->pair_count, c->slack,
+                  c->pair_e);
+    for (size_t k = 0; k < c->pair_count; k++) {
+        size_t p = c->pair[k].p, q = c->pair[k].q;
+        double w = agreement_of(c->pair_ga[k], c->pair_gb[k], c->pair_e[k]) *
+                   c->p[p].root * c->p[q].root;
+        if (w > 0)
+            c->matrix[p * m + q] = c->matrix[q * m + p] = w;
+    }
+}
+
+/* y[p0 .. p0 + BLOCK) of y = A x: each its diagonal term plus the
+ * matrix's row, columns ascending (the zeros add nothing: x >= 0), the
+ * rows' sums side by side. Rows past count are left out. */
+static void multiply_block(const phks__verifier *c, size_t p0)
+{
+    size_t n = c->count;
+    double sum[BLOCK];
+    for (size_t r = 0; r < BLOCK; r++)
+        sum[r] = p0 + r < n ? c->p[p0 + r].affinity * c->x[p0 + r] : 0;
+    /* Row q holds column q: the matrix is symmetric. */
+#if VERIFY_SSE2
+    __m128d acc[BLOCK / 2];
+    for (size_t r = 0; r < BLOCK / 2; r++)
+        acc[r] = _mm_loadu_pd(sum + 2 * r);
+    for (size_t q = 0; q < n; q++) {
+        const double *column = c->matrix + q * c->stride + p0;
+        __m128d xq = _mm_set1_pd(c->x[q]);
+        for (size_t r = 0; r < BLOCK / 2; r++)
+            acc[r] = _mm_add_pd(acc[r],
+                                _mm_mul_pd(_mm_loadu_pd(column + 2 * r), xq));
+    }
+    for (size_t r = 0; r < BLOCK / 2; r++)
+        _mm_storeu_pd(sum + 2 * r, acc[r]);
+#else
+    for (size_t q = 0; q < n; q++) {
+        const double *column = c->matrix + q * c->stride + p0;
+        double xq = c->x[q];
+        for (size_t r = 0; r < BLOCK; r++)
+            sum[r] += column[r] * xq;
+    }
+#endif
+    for (size_t r = 0; r < BLOCK && p0 + r < n; r++)
+        c->y[p0 + r] = sum[r];
+}
+
+static void leading_vector(phks__verifier *c)
 {
     size_t n = c->count;
     for (size_t p = 0; p < n; p++)
         c->x[p] = 1 / sqrt((double)n);
     for (int it = 0; it < ITERATIONS; it++) {
-        for (size_t p = 0; p < n; p++)
-            c->y[p] = c->p[p].affinity * c->x[p];
-        for (size_t k = 0; k < c->pair_count; k++) {
-            const pair_entry *e = c->pairs + k;
-            c->y[e->p] += e->w * c->x[e->q];
-            c->y[e->q] += e->w * c->x[e->p];
-        }
+        for (size_t p0 = 0; p0 < n; p0 += BLOCK)
+            multiply_block(c, p0);
         double norm = 0;
         for (size_t p = 0; p < n; p++)
             norm += c->y[p] * c->y[p];
@@ -251,20 +423,27 @@ static void leading_vector(verify_ctx *c)
     }
 }
 
-/* Reads the eigenvector greedily into a one-to-one set and returns its
- * affinity; pair_of as phks__verify's. */
-static double select_set(verify_ctx *c, uint32_t *pair_of)
+/* Largest entry first, the lower index on ties. */
+static int by_reading_order(const void *x, const void *y)
 {
-    size_t n = c->count, taken = 0;
+    const ranked *a = x, *b = y;
+    if (a->x != b->x)
+        return a->x > b->x ? -1 : 1;
+    return (a->p > b->p) - (a->p < b->p);
+}
+
+/* Reads the eigenvector greedily, from its largest entry down, into a
+ * one-to-one set and returns its affinity; pair_of as phks__verify's. */
+static double select_set(phks__verifier *c, uint32_t *pair_of)
+{
+    size_t ranks = 0, taken = 0;
+    for (size_t p = 0; p < c->count; p++)
+        if (c->x[p] > 0)
+            c->order[ranks++] = (ranked){c->x[p], p};
+    qsort(c->order, ranks, sizeof *c->order, by_reading_order);
     double total = 0;
-    for (;;) {
-        size_t best = n;
-        for (size_t p = 0; p < n; p++)
-            if (c->x[p] > 0 && (best == n || c->x[p] > c->x[best]))
-                best = p;
-        if (best == n)
-            break;
-        c->x[best] = 0;
+    for (size_t r = 0; r < ranks; r++) {
+        size_t best = c->order[r].p;
         const proposal *x = c->p + best;
         double with = 0;
         bool clash = false;
@@ -285,8 +464,8 @@ static double select_set(verify_ctx *c, uint32_t *pair_of)
     return total;
 }
 
-/* The verified set's affinity at one scale. */
-static double try_scale(verify_ctx *c, double scale, uint32_t *pair_of)
+/* The proposals at one scale. */
+static void propose_at(phks__verifier *c, double scale)
 {
     const double *vb = c->vb;
     if (scale != 1 &&
@@ -295,8 +474,32 @@ static double try_scale(verify_ctx *c, double scale, uint32_t *pair_of)
         vb = c->vb_shift;
     }
     c->scale = scale;
+    for (size_t k = 0; k < c->nb * c->nb; k++)
+        c->gb_scaled[k] = scale * c->gb[k];
     distances(c, vb);
     propose(c);
+}
+
+/* At most the affinity of any set the proposals can give: a set takes
+ * one proposal per query feature and pairs that agree at most fully, so
+ * its sum of u + 2 w sqrt(u u') is at most the square of the sum, over
+ * the features, of their largest sqrt(u). */
+static double affinity_bound(const phks__verifier *c)
+{
+    double sum = 0;
+    for (size_t p = 0; p < c->count;) {
+        double most = 0;
+        size_t i = c->p[p].i;
+        for (; p < c->count && c->p[p].i == i; p++)
+            most = fmax(most, c->p[p].root);
+        sum += most;
+    }
+    return sum * sum;
+}
+
+/* The verified set's affinity at the scale proposed. */
+static double verified_set(phks__verifier *c, uint32_t *pair_of)
+{
     affinities(c);
     leading_vector(c);
     for (size_t i = 0; i < c->na; i++)
@@ -304,68 +507,142 @@ static double try_scale(verify_ctx *c, double scale, uint32_t *pair_of)
     return select_set(c, pair_of);
 }
 
-static void release(verify_ctx *c)
+/* The largest verified affinity over the scales, and its set in pair_of
+ * (may be NULL): the first scale's on ties, from the smallest up. The
+ * scales are tried from 1 outwards, the likeliest first, and one whose
+ * bound is below the best so far is passed over: its set could not be
+ * the best. The bound is the exact sum's; BOUND_MARGIN covers both sums'
+ * rounding. */
+static double best_affinity(phks__verifier *c, uint32_t *pair_of)
 {
-    void *owned[] = {c->va, c->vb, c->wa, c->wb, c->vb_shift, c->dist,
-                     c->trust, c->p, c->pairs, c->x, c->y, c->set,
-                     c->trial};
-    for (size_t k = 0; k < sizeof owned / sizeof owned[0]; k++)
-        phks__free(owned[k]);
+    double best = -1;
+    int best_k = 0;
+    for (int t = 0; t <= 2 * SCALE_STEPS; t++) {
+        int k = (t + 1) / 2 * (t % 2 ? -1 : 1);
+        propose_at(c, exp2(k / 4.0));
+        if (best >= 0 && affinity_bound(c) * (1 + BOUND_MARGIN) < best)
+            continue;
+        double e = verified_set(c, c->trial);
+        if (e > best || (e == best && k < best_k)) {
+            best = e;
+            best_k = k;
+            if (pair_of)
+                memcpy(pair_of, c->trial, c->na * sizeof *pair_of);
+        }
+    }
+    return best;
 }
 
-static phks_status allocate(verify_ctx *c)
+/* The verifier's arrays, for allocate and phks__verifier_free. */
+#define OWNED(c)                                                            \
+    {(c)->va, (c)->vb, (c)->wa, (c)->wb, (c)->vb_shift, (c)->step_weight,   \
+     (c)->sum, (c)->last, (c)->weight_sum, (c)->dist, (c)->trust, (c)->ga,  \
+     (c)->gb, (c)->gb_scaled, (c)->p, (c)->pair, (c)->pair_ga,              \
+     (c)->pair_gb, (c)->pair_e, (c)->matrix, (c)->x, (c)->y, (c)->order,    \
+     (c)->set, (c)->trial}
+
+void phks__verifier_free(phks__verifier *c)
 {
-    size_t na = c->na, nb = c->nb, L = c->length;
+    if (!c)
+        return;
+    void *owned[] = OWNED(c);
+    for (size_t k = 0; k < sizeof owned / sizeof owned[0]; k++)
+        phks__free(owned[k]);
+    phks__free(c);
+}
+
+/* Room for entries of up to nb points; an entry's arrays are laid out
+ * by its own count within them. */
+static bool allocate(phks__verifier *c, size_t nb)
+{
+    size_t na = c->na, L = c->length;
     size_t most = na * (nb < CANDIDATES ? nb : CANDIDATES) + 1;
     c->va = phks__malloc_array(na, L * sizeof *c->va);
     c->vb = phks__malloc_array(nb, L * sizeof *c->vb);
     c->wa = phks__malloc_array(na, L * sizeof *c->wa);
     c->wb = phks__malloc_array(nb, L * sizeof *c->wb);
     c->vb_shift = phks__malloc_array(nb, L * sizeof *c->vb_shift);
+    c->step_weight =
+        phks__malloc_array(na * nb, c->steps * sizeof *c->step_weight);
+    c->sum = phks__malloc_array(nb, sizeof *c->sum);
+    c->last = phks__malloc_array(nb, sizeof *c->last);
+    c->weight_sum = phks__malloc_array(na, nb * sizeof *c->weight_sum);
     c->dist = phks__malloc_array(na, nb * sizeof *c->dist);
     c->trust = phks__malloc_array(na, nb * sizeof *c->trust);
+    c->ga = phks__malloc_array(na, na * sizeof *c->ga);
+    c->gb = phks__malloc_array(nb, nb * sizeof *c->gb);
+    c->gb_scaled = phks__malloc_array(nb, nb * sizeof *c->gb_scaled);
     c->p = phks__malloc_array(most, sizeof *c->p);
-    c->pairs = phks__malloc_array(most, most / 2 * sizeof *c->pairs);
+    c->pair = phks__malloc_array(most, most / 2 * sizeof *c->pair);
+    c->pair_ga = phks__malloc_array(most, most / 2 * sizeof *c->pair_ga);
+    c->pair_gb = phks__malloc_array(most, most / 2 * sizeof *c->pair_gb);
+    c->pair_e = phks__malloc_array(most, most / 2 * sizeof *c->pair_e);
+    c->matrix = phks__malloc_array(most, (most + BLOCK) * sizeof *c->matrix);
     c->x = phks__malloc_array(most, sizeof *c->x);
     c->y = phks__malloc_array(most, sizeof *c->y);
+    c->order = phks__malloc_array(most, sizeof *c->order);
     c->set = phks__malloc_array(most, sizeof *c->set);
     c->trial = phks__malloc_array(na + 1, sizeof *c->trial);
-    if (c->va && c->vb && c->wa && c->wb && c->vb_shift && c->dist &&
-        c->trust && c->p && c->pairs && c->x && c->y && c->set && c->trial)
-        return PHKS_OK;
-    release(c);
-    return phks__fail_oom("verified matching");
+    void *owned[] = OWNED(c);
+    for (size_t k = 0; k < sizeof owned / sizeof owned[0]; k++)
+        if (!owned[k])
+            return false;
+    return true;
+}
+
+phks_status phks__verifier_new(const phks_signature *a, size_t points,
+                               phks__verifier **out)
+{
+    *out = NULL;
+    phks__verifier *c = phks__calloc(1, sizeof *c);
+    if (!c)
+        return phks__fail_oom("verified matching");
+    c->a = a;
+    c->na = a->count;
+    c->length = a->length;
+    c->steps = c->length > 1 ? c->length - 1 : 1;
+    c->sigma = VECTOR_SIGMA * (double)c->length;
+    c->slack = sqrt(4 * a->options.feature_scale * a->options.tau);
+    if (!allocate(c, points)) {
+        phks__verifier_free(c);
+        return phks__fail_oom("verified matching");
+    }
+    compared_vectors(a, c->na, c->va);
+    boundary_weights(a, c->na, c->wa);
+    square_distances(a, c->na, c->ga);
+    *out = c;
+    return PHKS_OK;
+}
+
+void phks__verifier_run(phks__verifier *c, const phks_signature *b,
+                        double nearest, uint32_t *pair_of, double *score)
+{
+    c->b = b;
+    c->nb = phks__signature_points(b);
+    for (size_t k = 0; k < c->length; k++)
+        c->log_times[k] = log(b->options.scales[k]);
+    /* b's vectors by point into vb_shift, free until a scale is tried,
+     * then by time scale into vb. */
+    compared_vectors(b, c->nb, c->vb_shift);
+    for (size_t j = 0; j < c->nb; j++)
+        for (size_t k = 0; k < c->length; k++)
+            c->vb[k * c->nb + j] = c->vb_shift[j * c->length + k];
+    boundary_weights(b, c->nb, c->wb);
+    step_weights(c);
+    square_distances(b, c->nb, c->gb);
+    double best = best_affinity(c, pair_of);
+    double n = (double)c->na;
+    *score = nearest * (1 - fmin(best / (n * n), 1));
 }
 
 phks_status phks__verify(const phks_signature *a, const phks_signature *b,
                          double nearest, uint32_t *pair_of, double *score)
 {
-    verify_ctx c = {0};
-    c.a = a;
-    c.b = b;
-    c.na = a->count;
-    c.nb = phks__signature_points(b);
-    c.length = a->length;
-    c.sigma = VECTOR_SIGMA * (double)c.length;
-    c.slack = sqrt(4 * a->options.feature_scale * a->options.tau);
-    phks_status st = allocate(&c);
+    phks__verifier *v;
+    phks_status st = phks__verifier_new(a, phks__signature_points(b), &v);
     if (st != PHKS_OK)
         return st;
-    compared_vectors(a, c.na, c.va);
-    compared_vectors(b, c.nb, c.vb);
-    boundary_weights(a, c.na, c.wa);
-    boundary_weights(b, c.nb, c.wb);
-    double best = 0;
-    for (int k = -SCALE_STEPS; k <= SCALE_STEPS; k++) {
-        double e = try_scale(&c, exp2(k / 4.0), c.trial);
-        if (e > best || k == -SCALE_STEPS) {
-            best = e;
-            if (pair_of)
-                memcpy(pair_of, c.trial, c.na * sizeof *pair_of);
-        }
-    }
-    double n = (double)c.na;
-    *score = nearest * (1 - fmin(best / (n * n), 1));
-    release(&c);
+    phks__verifier_run(v, b, nearest, pair_of, score);
+    phks__verifier_free(v);
     return PHKS_OK;
 }
