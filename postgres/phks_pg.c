@@ -242,8 +242,11 @@ query_cache *phks_pg_cached_query(FunctionCallInfo fcinfo, bytea *blob,
     query_cache *cache = (query_cache *)fcinfo->flinfo->fn_extra;
     const char *data = VARDATA_ANY(blob);
     size_t size = VARSIZE_ANY_EXHDR(blob);
-    if (cache && cache->sig && cache->size == size &&
-        memcmp(cache->blob, data, size) == 0)
+    /* A constant or a parameter of the statement cannot change between
+     * rows: its bytes need no comparing. */
+    if (cache && cache->sig &&
+        (cache->stable ||
+         (cache->size == size && memcmp(cache->blob, data, size) == 0)))
         return cache;
     if (!cache) {
         cache = MemoryContextAllocZero(fcinfo->flinfo->fn_mcxt,
@@ -253,6 +256,7 @@ query_cache *phks_pg_cached_query(FunctionCallInfo fcinfo, bytea *blob,
         MemoryContextRegisterResetCallback(fcinfo->flinfo->fn_mcxt,
                                            &cache->cb);
         fcinfo->flinfo->fn_extra = cache;
+        cache->stable = get_fn_expr_arg_stable(fcinfo->flinfo, 1);
     }
     phks_signature_free(cache->sig);
     cache->sig = NULL;

@@ -34,10 +34,13 @@ char *phks_pg_hex_encode(const void *data, size_t size);
 
 typedef struct phks_pg_key phks_pg_key;
 
-/* A query signature decoded once per expression (the constant side of
- * ORDER BY sig <~> $1), keyed by its bytes, in fn_extra; the handle is
- * freed with the expression's memory context. */
+/* The query signature, the second argument, decoded once per expression
+ * (the constant side of ORDER BY sig <~> $1) in fn_extra: keyed by its
+ * bytes, or for good where the argument is a constant or a parameter of
+ * the statement; the handle is freed with the expression's memory
+ * context. */
 typedef struct query_cache {
+    bool stable; /* the second argument is the same for every call */
     size_t size;
     char *blob;          /* in fn_mcxt */
     phks_signature *sig; /* library handle, freed by the reset callback */
