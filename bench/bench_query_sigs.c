@@ -12,6 +12,8 @@
  * digits), so that two builds' rankings can be compared with diff.
  * Threads: all online CPUs (the library's default).
  */
+#include "bench_files.h"
+
 #include <phks.h>
 
 #include <dirent.h>
@@ -84,20 +86,13 @@ static phks_signature *load(const char *dir, const char *name)
 {
     char path[4096];
     snprintf(path, sizeof path, "%s/%s", dir, name);
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return NULL;
-    fseek(f, 0, SEEK_END);
-    long size = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    void *buffer = malloc(size > 0 ? (size_t)size : 1);
+    size_t size;
+    void *buffer = bench_read_file(path, &size);
     phks_signature *sig = NULL;
-    if (buffer && fread(buffer, 1, (size_t)size, f) == (size_t)size &&
-        phks_signature_decode(buffer, (size_t)size, &sig) != PHKS_OK)
+    if (buffer && phks_signature_decode(buffer, size, &sig) != PHKS_OK)
         fprintf(stderr, "bench-query-sigs: %s: %s\n", path,
                 phks_last_error_message());
     free(buffer);
-    fclose(f);
     return sig;
 }
 

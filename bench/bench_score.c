@@ -9,6 +9,8 @@
  * (default 20000; a tenth of that for phks_score), so that other jobs on
  * a shared machine inflate them little.
  */
+#include "bench_files.h"
+
 #include <phks.h>
 
 #include <stdio.h>
@@ -23,28 +25,10 @@ static double cpu_seconds(void)
     return (double)t.tv_sec + (double)t.tv_nsec * 1e-9;
 }
 
-static void *read_file(const char *path, size_t *size)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return NULL;
-    void *data = NULL;
-    long n = -1;
-    if (fseek(f, 0, SEEK_END) == 0 && (n = ftell(f)) > 0 &&
-        fseek(f, 0, SEEK_SET) == 0 && (data = malloc((size_t)n)) &&
-        fread(data, 1, (size_t)n, f) != (size_t)n) {
-        free(data);
-        data = NULL;
-    }
-    fclose(f);
-    *size = n > 0 ? (size_t)n : 0;
-    return data;
-}
-
 static phks_signature *load(const char *path, void **blob, size_t *size)
 {
     phks_signature *sig = NULL;
-    *blob = read_file(path, size);
+    *blob = bench_read_file(path, size);
     if (!*blob || phks_signature_decode(*blob, *size, &sig) != PHKS_OK) {
         fprintf(stderr, "bench-score: %s: %s\n", path,
                 *blob ? phks_last_error_message() : "cannot read");

@@ -44,24 +44,26 @@ struct phks_pg_key {
     double vectors[FLEXIBLE_ARRAY_MEMBER];
 };
 
+#define FIELD(name, member) \
+    {name, offsetof(key_options, member), sizeof(((key_options *)0)->member)}
+
 static const struct key_field {
     const char *name;
-    size_t offset;
-    bool is_double;
+    size_t offset, size;
 } key_fields[] = {
-    {"tau", offsetof(key_options, tau), true},
-    {"cutoff", offsetof(key_options, cutoff), true},
-    {"eigen_count", offsetof(key_options, eigen_count), false},
-    {"feature_count", offsetof(key_options, feature_count), false},
-    {"scales", offsetof(key_options, scale_count), false},
-    {"scales", offsetof(key_options, scales_hash), false},
-    {"feature_scale", offsetof(key_options, feature_scale), true},
-    {"operator_kind", offsetof(key_options, operator_kind), false},
-    {"box", offsetof(key_options, box), false},
-    {"boundary_margin", offsetof(key_options, boundary_margin), true},
-    {"hks_scaling", offsetof(key_options, hks_scaling), false},
-    {"quadrature", offsetof(key_options, quadrature), false},
-    {"matching", offsetof(key_options, matching), false},
+    FIELD("tau", tau),
+    FIELD("cutoff", cutoff),
+    FIELD("eigen_count", eigen_count),
+    FIELD("feature_count", feature_count),
+    FIELD("scales", scale_count),
+    FIELD("scales", scales_hash),
+    FIELD("feature_scale", feature_scale),
+    FIELD("operator_kind", operator_kind),
+    FIELD("box", box),
+    FIELD("boundary_margin", boundary_margin),
+    FIELD("hks_scaling", hks_scaling),
+    FIELD("quadrature", quadrature),
+    FIELD("matching", matching),
 };
 
 static size_t key_size(size_t count, size_t length)
@@ -234,10 +236,7 @@ static void check_options(const key_options *a, const key_options *b)
     for (size_t i = 0; i < lengthof(key_fields); i++) {
         const char *pa = (const char *)a + key_fields[i].offset;
         const char *pb = (const char *)b + key_fields[i].offset;
-        size_t n = key_fields[i].is_double ? sizeof(double) : sizeof(uint32);
-        if (key_fields[i].offset == offsetof(key_options, scales_hash))
-            n = sizeof(uint64);
-        if (memcmp(pa, pb, n) != 0) {
+        if (memcmp(pa, pb, key_fields[i].size) != 0) {
             name = key_fields[i].name;
             break;
         }

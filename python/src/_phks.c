@@ -904,17 +904,24 @@ static PyObject *Signature_get_vertices(SignatureObject *self, void *c)
     return self->caller_vertices;
 }
 
-static PyObject *Signature_get_mesh_vertices(SignatureObject *self, void *c)
+/* The mesh vertices of points [first, first + k): features, then
+ * samples. */
+static PyObject *vertices_of(const phks_signature *sig, size_t first,
+                             size_t k)
 {
-    size_t k = phks_signature_feature_count(self->sig);
     npy_intp dims[1] = {(npy_intp)k};
     PyObject *arr = PyArray_SimpleNew(1, dims, NPY_UINT32);
     if (!arr)
         return NULL;
     uint32_t *out = PyArray_DATA((PyArrayObject *)arr);
     for (size_t i = 0; i < k; i++)
-        out[i] = phks_signature_feature_vertex(self->sig, i);
+        out[i] = phks_signature_feature_vertex(sig, first + i);
     return arr;
+}
+
+static PyObject *Signature_get_mesh_vertices(SignatureObject *self, void *c)
+{
+    return vertices_of(self->sig, 0, phks_signature_feature_count(self->sig));
 }
 
 static PyObject *Signature_get_positions(SignatureObject *self, void *c)
@@ -978,16 +985,8 @@ static PyObject *Signature_get_sample_vectors(SignatureObject *self, void *c)
 static PyObject *Signature_get_sample_mesh_vertices(SignatureObject *self,
                                                     void *c)
 {
-    size_t f = phks_signature_feature_count(self->sig);
-    size_t k = phks_signature_sample_count(self->sig);
-    npy_intp dims[1] = {(npy_intp)k};
-    PyObject *arr = PyArray_SimpleNew(1, dims, NPY_UINT32);
-    if (!arr)
-        return NULL;
-    uint32_t *out = PyArray_DATA((PyArrayObject *)arr);
-    for (size_t i = 0; i < k; i++)
-        out[i] = phks_signature_feature_vertex(self->sig, f + i);
-    return arr;
+    return vertices_of(self->sig, phks_signature_feature_count(self->sig),
+                       phks_signature_sample_count(self->sig));
 }
 
 static PyObject *Signature_get_vector_length(SignatureObject *self, void *c)
