@@ -6,6 +6,7 @@ set -u
 phks=$1
 case $phks in /*) ;; *) phks=$(pwd)/$phks ;; esac
 helpers=$(cd "$(dirname "$0")" && pwd)/cli_helpers.sh
+docs=$(cd "$(dirname "$0")/../docs" && pwd)/cli.md
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 cd "$tmp" || exit 1
@@ -58,6 +59,7 @@ expect_out "--time T .*(5)"; expect_out "--ascii .*(binary little-endian)"
 run "$phks" db query --help; expect_out "-k K .*(10)"
 run "$phks" db add --help; expect_out "--allow-duplicates"
 run "$phks" bench --help; expect_out "--seeds N .*(1)"; expect_out "(psb/)"
+expect_out "--group NAME=A,B"
 
 # ---- signature --------------------------------------------------------------
 run "$phks" signature a.off -o a.sig; expect_rc 0 "signature"
@@ -524,9 +526,61 @@ run "$phks" db remove t.db one; expect_rc 2 "db remove of a non-number"
 run "$phks" db frob t.db; expect_rc 2 "unknown db command"
 
 # ---- bench ------------------------------------------------------------------
+# class_row CLASS TSV: the by-class row of the bench report, as the ranks
+# of the class's queries in the --queries-out file TSV give it.
+class_row() {
+    awk -F'\t' -v c="$1" '
+        function pct(h, n) {
+            return n ? sprintf(" %.1f |", 100 * h / n) : " - |"
+        }
+        NR > 1 && $4 == c {
+            if ($5 < 0) { failed++; next }
+            s = $2 == "complete" ? 1 : 2
+            n[s]++; n[3]++
+            for (k = 1; k <= 5; k += 2)
+                if ($5 >= 1 && $5 <= k) { h[s, k]++; h[3, k]++ }
+        }
+        END {
+            row = sprintf("| %s | %d | %d |", c, n[3], failed)
+            for (s = 1; s <= 3; s++)
+                for (k = 1; k <= 5; k += 2)
+                    row = row pct(h[s, k], n[s])
+            print row
+        }' "$2"
+}
+# The by-class table's rows of out (without --group): their queries (n)
+# summed.
+class_queries() {
+    awk -F'|' '/^\| class \| n \|/ { on = 1; getline; next }
+        on && !NF { on = 0 } on { n += $3 } END { print n + 0 }' out
+}
+# documented WHAT: every key of the JSON in out is a word of a code span of
+# docs/cli.md.
+documented() {
+    $py -c 'import json,re,sys
+words = {w for span in re.findall(r"`([^`]*)`", open(sys.argv[1]).read())
+         for w in re.findall(r"\w+", span)}
+def keys(x):
+    if isinstance(x, dict):
+        for k, v in x.items():
+            yield k
+            yield from keys(v)
+    elif isinstance(x, list):
+        for v in x:
+            yield from keys(v)
+missing = sorted(set(keys(json.load(sys.stdin))) - words)
+assert not missing, missing' "$docs" < out ||
+        fail "$1: JSON fields missing in docs/cli.md"
+}
 run "$phks" bench set/MANIFEST.tsv --prefix "" --cache cache \
     --queries-out q.tsv -j 2 --no-source
 expect_rc 0 "bench"
+for c in star bar; do
+    grep -qxF -- "$(class_row $c q.tsv)" out ||
+        fail "bench: the by-class row of $c is not $(class_row $c q.tsv)"
+done
+[ "$(class_queries)" -eq "$(awk -F'|' '/^\| all \|/ { print $3 + 0 }' out)" ] ||
+    fail "bench: the classes' queries do not add up to all"
 expect_out "| queries | n | failed | Top-1 | Top-3 | Top-5 |"
 expect_out "^| all | "; expect_out "^| partial+incomplete | "
 expect_out "next to the cut"
@@ -558,11 +612,45 @@ assert rows["all"]["n"] == sum(rows[k]["n"] for k in ("complete", "partial", "in
 assert len(d["seeds"]) == 1 and d["seeds"][0]["results"] == p
 assert p["database"]["entries"] == 6 and len(p["cut"]) == 3
 assert d["source"] is None
+c = {x["class"]: x for x in d["by_class"]}
+assert list(c) == ["star", "bar"] and d["group"] is None
+assert sum(x["queries"] for x in c.values()) == rows["all"]["n"]
+for k in ("failed", "top1_hits", "top3_hits", "top5_hits"):
+    assert sum(x["retrieval"][2][k] for x in c.values()) == rows["all"][k]
+sets = ["complete", "partial+incomplete", "all"]
+assert [r["queries"] for r in c["star"]["retrieval"]] == sets
 print("| all | %d | %d |" % (rows["all"]["n"], rows["all"]["failed"]))' \
     < out > all_row || fail "bench --json"
 run "$phks" bench set/MANIFEST.tsv --prefix "" --cache cache -j 1 --no-source
 expect_out "^$(cat all_row)"
 grep -q "Source retrieval" out && fail "bench --no-source: a source table"
+# --group: one more by-class row; of every class, the query sets' rows.
+run "$phks" bench set/MANIFEST.tsv --prefix "" --cache cache -j 1 --no-source \
+    --json --group both=bar,star
+expect_rc 0 "bench --group"
+$py -c 'import json,sys; d=json.load(sys.stdin)
+rows = {r["queries"]: r for r in d["pooled"]["retrieval"]}
+g = d["group"]
+assert g["name"] == "both" and g["classes"] == "bar,star"
+assert g["queries"] == rows["all"]["n"] and g["failed"] == rows["all"]["failed"]
+assert g["retrieval"] == [rows[k]
+                          for k in ("complete", "partial+incomplete", "all")]' \
+    < out || fail "bench --json --group"
+documented "bench --json --group"
+run "$phks" bench set/MANIFEST.tsv --prefix "" --cache cache -j 1 --no-source \
+    --group "one of them=star"
+expect_rc 0 "bench --group, markdown"
+expect_out "; the last row, one of them, pools star:$"
+star=$(class_row star q.tsv)
+grep -qxF -- "| one of them |${star#| star |}" out ||
+    fail "bench --group: its row is not star's"
+run "$phks" bench set/MANIFEST.tsv --prefix "" --group both=star,nope
+expect_rc 1 "bench --group of an unknown class"
+expect_err "no class nope among the selected classes"
+run "$phks" bench set/MANIFEST.tsv --prefix "" --classes star --group x=bar
+expect_rc 1 "bench --group of a class not selected"; expect_err "no class bar"
+run "$phks" bench set/MANIFEST.tsv --prefix "" --group star
+expect_rc 2 "bench --group without a name"; expect_err "NAME=A,B"
 # The source part: every version of every model, the protocol's cached.
 run "$phks" bench set/MANIFEST.tsv --prefix "" --cache cache -j 2 --json \
     --one-character bar
@@ -580,13 +668,18 @@ assert r["partial"]["top1_hits"] <= r["partial"]["top5_hits"] <= 8
 assert c["partial"]["verified_correct"] <= c["partial"]["verified"] <= c["partial"]["features"]
 assert c["partial"]["median_error"] >= 0' < out ||
     fail "bench --json: the source part"
+documented "bench --json with the source part"
 run "$phks" bench set/MANIFEST.tsv --prefix "" --cache cache -j 1
 expect_out "^## Source retrieval and correspondences"
 expect_out "^| versions | n | failed | features | correct, percent | "
 expect_out "^| partial+incomplete | 16 | 0 | "
 run "$phks" bench set/MANIFEST.tsv --prefix "" --seeds 2 --classes star \
-    --max-per-class 4
+    --max-per-class 4 --queries-out q3.tsv
 expect_rc 0 "bench --seeds 2"
+grep -qxF -- "$(class_row star q3.tsv)" out ||
+    fail "bench --seeds 2: the by-class row is not the seeds' pooled"
+[ "$(grep -c '^| class |' out)" -eq 1 ] ||
+    fail "bench --seeds 2: a by-class table per seed"
 expect_out "^## Seed 2"; expect_out "^## All seeds (pooled)"
 expect_out "^### Seed 2"; expect_out "^### All seeds (pooled)"
 run "$phks" bench set/MANIFEST.tsv --prefix "" --classes nope

@@ -20,6 +20,7 @@ static const char usage[] =
     "                  [--seeds N] [--cache DIR] [--queries-out TSV] [-j N]\n"
     "                  [--json] [--no-source] [--one-character A,B]\n"
     "                  [--feature-function hks|agd|gc] [--descriptor hks|evd]\n"
+    "                  [--group NAME=A,B]\n"
     "  --prefix P          rows whose file starts with P (psb/)\n"
     "  --classes A,B       only these classes (all)\n"
     "  --max-per-class M   the first M models of each class (all)\n"
@@ -35,11 +36,13 @@ static const char usage[] =
     "                      the average geodesic distance or Gaussian\n"
     "                      curvature (hks)\n"
     "  --descriptor D      rank by the signatures, or by the first 50\n"
-    "                      nonzero eigenvalues (hks)";
+    "                      nonzero eigenvalues (hks)\n"
+    "  --group NAME=A,B    a row NAME of the by-class table pooling these\n"
+    "                      classes (none)";
 
 typedef struct bench_args {
     const char *manifest, *prefix, *classes, *cache, *queries_out;
-    const char *one_character, *feature_function, *descriptor;
+    const char *one_character, *feature_function, *descriptor, *group;
     unsigned long max_per_class, seeds, workers;
     int json, no_source;
 } bench_args;
@@ -75,6 +78,7 @@ static int parse_args(int argc, char **argv, bench_args *a)
         {"--one-character", &a->one_character, NULL},
         {"--feature-function", &a->feature_function, NULL},
         {"--descriptor", &a->descriptor, NULL},
+        {"--group", &a->group, NULL},
     };
     int n;
     a->prefix = "psb/";
@@ -89,6 +93,11 @@ static int parse_args(int argc, char **argv, bench_args *a)
         cli_parse_count(seeds, 1, 1000000, &a->seeds) ||
         (jobs && cli_parse_count(jobs, 1, 1024, &a->workers)))
         return -1;
+    const char *eq = a->group ? strchr(a->group, '=') : NULL;
+    if (a->group && (!eq || eq == a->group || !eq[1])) {
+        fprintf(stderr, "phks: bench: --group takes NAME=A,B\n");
+        return -1;
+    }
     a->manifest = argv[1];
     return 0;
 }
@@ -100,12 +109,18 @@ static const char *next_name(const char *p)
     return comma ? comma + 1 : NULL;
 }
 
+/* Is the name at p, up to a comma or the end, cls? */
+static int names(const char *p, const char *cls)
+{
+    size_t n = strlen(cls);
+    return strncmp(p, cls, n) == 0 && (p[n] == ',' || p[n] == '\0');
+}
+
 /* Is cls one of the comma-separated names in list (NULL: all)? */
 static int listed(const char *list, const char *cls)
 {
-    size_t n = strlen(cls);
     for (const char *p = list; p; p = next_name(p))
-        if (strncmp(p, cls, n) == 0 && (p[n] == ',' || p[n] == '\0'))
+        if (names(p, cls))
             return 1;
     return !list;
 }
@@ -141,6 +156,7 @@ static void add_class(const bench_args *a, const cli_row *rows, size_t n,
                       size_t first, bench_plan *p)
 {
     size_t i = 0, j = 0;
+    p->classes[p->class_count].name = rows[first].cls;
     for (size_t r = first; r < n && i < a->max_per_class; r++) {
         if (!wanted(a, &rows[r]) || strcmp(rows[r].cls, rows[first].cls) != 0)
             continue;
@@ -150,14 +166,18 @@ static void add_class(const bench_args *a, const cli_row *rows, size_t n,
         m->db_kind = m->is_query ? KIND_COMPLETE : (int)(j++ % 3);
         m->all_versions = m->is_query || p->source;
         m->one_character = listed(a->one_character, m->row->cls);
+        m->cls = p->class_count;
     }
+    p->class_count++;
 }
 
 static int select_models(const bench_args *a, const cli_row *rows, size_t n,
                          bench_plan *p)
 {
     p->models = calloc(n ? n : 1, sizeof *p->models);
-    if (!p->models)
+    p->classes = calloc(n ? n : 1, sizeof *p->classes);
+    p->by_class = calloc(n ? n : 1, sizeof *p->by_class);
+    if (!p->models || !p->classes || !p->by_class)
         return cli_error(a->manifest, "out of memory");
     for (size_t r = 0; r < n; r++) {
         size_t s = 0;
@@ -169,6 +189,33 @@ static int select_models(const bench_args *a, const cli_row *rows, size_t n,
     }
     if (!p->model_count)
         return cli_error(a->manifest, "no model matches the prefix and classes");
+    return 0;
+}
+
+/* --group NAME=A,B into the plan: every name one of the selected
+ * classes. */
+static int plan_group(const bench_args *a, bench_plan *p)
+{
+    const char *eq = strchr(a->group, '=');
+    p->group_classes = eq + 1;
+    for (const char *q = p->group_classes; q; q = next_name(q)) {
+        size_t c = 0;
+        while (c < p->class_count && !names(q, p->classes[c].name))
+            c++;
+        if (c == p->class_count) {
+            fprintf(stderr, "phks: %s: --group: no class %.*s among the "
+                    "selected classes\n", a->manifest, (int)strcspn(q, ","),
+                    q);
+            return -1;
+        }
+    }
+    for (size_t c = 0; c < p->class_count; c++)
+        p->classes[c].in_group = listed(p->group_classes, p->classes[c].name);
+    p->group_name = malloc((size_t)(eq - a->group) + 1);
+    if (!p->group_name)
+        return cli_error("bench", "out of memory");
+    memcpy(p->group_name, a->group, (size_t)(eq - a->group));
+    p->group_name[eq - a->group] = '\0';
     return 0;
 }
 
@@ -253,7 +300,7 @@ static int score_all(const bench_plan *p, FILE *qout, int json)
     for (unsigned s = 1; s <= p->seeds; s++) {
         bench_tally t = {0};
         char title[64];
-        rc |= bench_score_seed(p, s, &t, qout);
+        rc |= bench_score_seed(p, s, &t, p->by_class, qout);
         bench_tally_add(&pooled, &t);
         snprintf(title, sizeof title, "Seed %u", s);
         if (json) {
@@ -267,9 +314,12 @@ static int score_all(const bench_plan *p, FILE *qout, int json)
     if (json) {
         fputs("\n  ],\n  \"pooled\": ", stdout);
         bench_json_tally(&pooled);
-    } else
+        bench_json_by_class(p);
+    } else {
         bench_print_tally(&pooled,
                           p->seeds > 1 ? "All seeds (pooled)" : "Results");
+        bench_print_by_class(p);
+    }
     return rc;
 }
 
@@ -379,7 +429,8 @@ int cli_bench(int argc, char **argv, const phks_options *options)
                     .features = features, .evd = evd};
     p.options.threads = 1;
     FILE *qout = NULL;
-    int rc = check_classes(&a, rows, n) || select_models(&a, rows, n, &p);
+    int rc = check_classes(&a, rows, n) || select_models(&a, rows, n, &p) ||
+             (a.group && plan_group(&a, &p));
     if (!rc && plan_items(&p) != 0)
         rc = cli_error("bench", "out of memory");
     if (!rc && a.queries_out && !(qout = open_queries_out(a.queries_out)))
@@ -397,6 +448,9 @@ int cli_bench(int argc, char **argv, const phks_options *options)
     }
     free(p.items);
     free(p.models);
+    free(p.classes);
+    free(p.by_class);
+    free(p.group_name);
     cli_manifest_free(rows, n);
     return rc ? 1 : 0;
 }

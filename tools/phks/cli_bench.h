@@ -43,7 +43,14 @@ typedef struct bench_model {
                           model with the source part                      */
     int one_character; /* its class's models are poses of one character  */
     size_t first_item; /* its versions' items, see bench_item_of          */
+    size_t cls;        /* index in the plan's classes                     */
 } bench_model;
+
+/* A class of the selected models, in the order of their first model. */
+typedef struct bench_class {
+    const char *name;
+    int in_group;      /* one of --group's classes                        */
+} bench_class;
 
 typedef struct bench_item {
     size_t model;
@@ -79,6 +86,12 @@ typedef struct bench_plan {
     int source;              /* with the source part                       */
     int features;            /* BENCH_FEATURES_*                           */
     int evd;                 /* rank by the eigenvalue descriptor          */
+    bench_class *classes;
+    size_t class_count;
+    struct bench_tally *by_class; /* per class: its queries' counts, pooled
+                                     over the seeds                        */
+    char *group_name;        /* --group NAME=A,B: NAME; NULL: none         */
+    const char *group_classes; /* ... and A,B                              */
 } bench_plan;
 
 /* The sets of queries the tables report: name and one bit per kind. */
@@ -145,16 +158,21 @@ phks_status bench_query(const bench_plan *plan, phks_db *db,
 /* Pool task: computes plan->items[index] (ctx is the plan). */
 void bench_compute(void *ctx, size_t index);
 
-/* Builds seed's database, runs its queries, adds to *tally and writes one
- * line per query to queries_out (may be NULL). Returns 0, or 1 when the
- * database itself fails. */
+/* Builds seed's database, runs its queries, adds to *tally and to
+ * by_class[the query's class] (class_count tallies) and writes one line per
+ * query to queries_out (may be NULL). Returns 0, or 1 when the database
+ * itself fails. */
 int bench_score_seed(const bench_plan *plan, unsigned seed, bench_tally *tally,
-                     FILE *queries_out);
+                     bench_tally *by_class, FILE *queries_out);
 void bench_tally_add(bench_tally *sum, const bench_tally *t);
 /* The retrieval table and the features-at-the-cut table, markdown. */
 void bench_print_tally(const bench_tally *t, const char *title);
 /* The same as a JSON object on stdout (docs/cli.md). */
 void bench_json_tally(const bench_tally *t);
+/* The plan's by_class: the by-class table with --group's row (markdown),
+ * or the JSON report's fields "by_class" and "group". */
+void bench_print_by_class(const bench_plan *plan);
+void bench_json_by_class(const bench_plan *plan);
 /* " 12.5 |" (markdown) or 12.5 (JSON): percent of part in whole, "-" or
  * null when whole is 0. */
 void bench_print_percent(size_t part, size_t whole);

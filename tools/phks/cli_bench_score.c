@@ -56,6 +56,7 @@ static size_t first_rank(const phks_hit *hits, size_t count, const char *cls)
     return 0;
 }
 
+/* Runs one query and counts it into t, a tally of its own. */
 static void run_query(const bench_plan *p, phks_db *db,
                       const bench_evd_db *evd, size_t m, int kind,
                       unsigned seed, bench_tally *t, FILE *out)
@@ -92,7 +93,7 @@ static void run_query(const bench_plan *p, phks_db *db,
 }
 
 int bench_score_seed(const bench_plan *plan, unsigned seed, bench_tally *tally,
-                     FILE *queries_out)
+                     bench_tally *by_class, FILE *queries_out)
 {
     phks_db *db;
     bench_evd_db evd = {NULL, 0};
@@ -109,8 +110,12 @@ int bench_score_seed(const bench_plan *plan, unsigned seed, bench_tally *tally,
         return 1;
     }
     for (size_t m = 0; m < plan->model_count; m++)
-        for (int k = 0; plan->models[m].is_query && k < KIND_COUNT; k++)
-            run_query(plan, db, &evd, m, k, seed, tally, queries_out);
+        for (int k = 0; plan->models[m].is_query && k < KIND_COUNT; k++) {
+            bench_tally q = {0};
+            run_query(plan, db, &evd, m, k, seed, &q, queries_out);
+            bench_tally_add(tally, &q);
+            bench_tally_add(&by_class[plan->models[m].cls], &q);
+        }
     phks_db_close(db);
     free(evd.entries);
     return 0;
@@ -146,6 +151,15 @@ static size_t sum(const size_t *per_kind, unsigned kinds)
     return s;
 }
 
+/* Top-k hits (k: index in top_k) of the queries of kinds. */
+static size_t set_hits(const bench_tally *t, unsigned kinds, int k)
+{
+    size_t hits = 0;
+    for (int kind = 0; kind < KIND_COUNT; kind++)
+        hits += kinds >> kind & 1 ? t->top[kind][k] : 0;
+    return hits;
+}
+
 void bench_print_percent(size_t part, size_t whole)
 {
     if (whole)
@@ -162,12 +176,8 @@ static void print_retrieval(const bench_tally *t)
         const bench_set *set = &bench_sets[r];
         size_t n = sum(t->queries, set->kinds);
         printf("| %s | %zu | %zu |", set->name, n, sum(t->failed, set->kinds));
-        for (int k = 0; k < 3; k++) {
-            size_t hits = 0;
-            for (int kind = 0; kind < KIND_COUNT; kind++)
-                hits += set->kinds >> kind & 1 ? t->top[kind][k] : 0;
-            bench_print_percent(hits, n);
-        }
+        for (int k = 0; k < 3; k++)
+            bench_print_percent(set_hits(t, set->kinds, k), n);
         printf("\n");
     }
 }
@@ -211,6 +221,21 @@ void bench_json_percent(size_t part, size_t whole)
         fputs("null", stdout);
 }
 
+/* A row of "retrieval": the queries of set. */
+static void json_retrieval_row(const bench_tally *t, const bench_set *set)
+{
+    static const char *const top[] = {"top1", "top3", "top5"};
+    size_t n = sum(t->queries, set->kinds);
+    printf("{\"queries\": \"%s\", \"n\": %zu, \"failed\": %zu", set->name, n,
+           sum(t->failed, set->kinds));
+    for (int k = 0; k < 3; k++) {
+        size_t hits = set_hits(t, set->kinds, k);
+        printf(", \"%s_hits\": %zu, \"%s\": ", top[k], hits, top[k]);
+        bench_json_percent(hits, n);
+    }
+    putchar('}');
+}
+
 void bench_json_tally(const bench_tally *t)
 {
     printf("{\"database\": {\"entries\": %zu, \"complete\": %zu, "
@@ -218,19 +243,8 @@ void bench_json_tally(const bench_tally *t)
            "      \"retrieval\": [", sum(t->db_entries, 7), t->db_entries[0],
            t->db_entries[1], t->db_entries[2], sum(t->db_failed, 7));
     for (size_t r = 0; r < BENCH_SET_COUNT; r++) {
-        const bench_set *set = &bench_sets[r];
-        size_t n = sum(t->queries, set->kinds);
-        printf("%s\n        {\"queries\": \"%s\", \"n\": %zu, \"failed\": %zu",
-               r ? "," : "", set->name, n, sum(t->failed, set->kinds));
-        static const char *const top[] = {"top1", "top3", "top5"};
-        for (int k = 0; k < 3; k++) {
-            size_t hits = 0;
-            for (int kind = 0; kind < KIND_COUNT; kind++)
-                hits += set->kinds >> kind & 1 ? t->top[kind][k] : 0;
-            printf(", \"%s_hits\": %zu, \"%s\": ", top[k], hits, top[k]);
-            bench_json_percent(hits, n);
-        }
-        putchar('}');
+        printf("%s\n        ", r ? "," : "");
+        json_retrieval_row(t, &bench_sets[r]);
     }
     printf("\n      ],\n      \"cut_radius\": %g, \"cut\": [", BENCH_CUT_RADIUS);
     for (size_t r = 1; r < 4; r++) {
@@ -248,4 +262,82 @@ void bench_json_tally(const bench_tally *t)
         putchar('}');
     }
     fputs("\n      ]}", stdout);
+}
+
+/* ---- by class -------------------------------------------------------------- */
+/* The query sets of the by-class rows: complete, partial+incomplete, all. */
+static const size_t class_sets[3] = {0, 3, 4};
+
+/* The counts of --group's classes together. */
+static bench_tally group_tally(const bench_plan *p)
+{
+    bench_tally g = {0};
+    for (size_t c = 0; c < p->class_count; c++)
+        if (p->classes[c].in_group)
+            bench_tally_add(&g, &p->by_class[c]);
+    return g;
+}
+
+static void print_class_row(const char *name, const bench_tally *t)
+{
+    printf("| %s | %zu | %zu |", name, sum(t->queries, 7), sum(t->failed, 7));
+    for (int s = 0; s < 3; s++) {
+        unsigned kinds = bench_sets[class_sets[s]].kinds;
+        for (int k = 0; k < 3; k++)
+            bench_print_percent(set_hits(t, kinds, k), sum(t->queries, kinds));
+    }
+    printf("\n");
+}
+
+void bench_print_by_class(const bench_plan *p)
+{
+    printf("\nBy class, pooled over the seeds: answered and failed queries, "
+           "and Top-k in percent of the class's answered queries of each "
+           "set");
+    if (p->group_name)
+        printf("; the last row, %s, pools %s", p->group_name,
+               p->group_classes);
+    printf(":\n\n| class | n | failed | complete Top-1 | Top-3 | Top-5 | "
+           "partial+incomplete Top-1 | Top-3 | Top-5 | all Top-1 | Top-3 | "
+           "Top-5 |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+           "---:|\n");
+    for (size_t c = 0; c < p->class_count; c++)
+        print_class_row(p->classes[c].name, &p->by_class[c]);
+    if (p->group_name) {
+        bench_tally g = group_tally(p);
+        print_class_row(p->group_name, &g);
+    }
+}
+
+/* The rest of a class's object, after its name. */
+static void json_class(const bench_tally *t)
+{
+    printf(", \"queries\": %zu, \"failed\": %zu, \"retrieval\": [",
+           sum(t->queries, 7), sum(t->failed, 7));
+    for (int s = 0; s < 3; s++) {
+        printf("%s\n      ", s ? "," : "");
+        json_retrieval_row(t, &bench_sets[class_sets[s]]);
+    }
+    fputs("]}", stdout);
+}
+
+void bench_json_by_class(const bench_plan *p)
+{
+    fputs(",\n  \"by_class\": [", stdout);
+    for (size_t c = 0; c < p->class_count; c++) {
+        printf("%s\n    {\"class\": ", c ? "," : "");
+        cli_json_string(p->classes[c].name);
+        json_class(&p->by_class[c]);
+    }
+    fputs("\n  ],\n  \"group\": ", stdout);
+    if (!p->group_name) {
+        fputs("null", stdout);
+        return;
+    }
+    bench_tally g = group_tally(p);
+    fputs("{\"name\": ", stdout);
+    cli_json_string(p->group_name);
+    fputs(", \"classes\": ", stdout);
+    cli_json_string(p->group_classes);
+    json_class(&g);
 }
