@@ -4,11 +4,12 @@
  *
  *  - without a long triangle the option changes no bit: the quadrature is
  *    the vertices, the spectrum and the signature's numbers are the same;
- *  - the points: their count from the closed formula for a box of 12
- *    triangles (8 + 18 (s - 1) + 6 (s - 1)(s - 2): every edge shared by two
- *    triangles cut alike), weights positive and summing to the area,
- *    barycentric weights that reproduce each point's position, and masses
- *    lumped onto the vertices that keep the total;
+ *  - the points, on a box of 12 triangles and a CAD cylinder of slivers
+ *    and fans: weights positive and summing to the area, barycentric
+ *    weights that reproduce each point's position, masses lumped onto the
+ *    vertices that keep the total, every point of the surface within w of
+ *    a point, and no more points than a triangular lattice of side w
+ *    needs (see check_points);
  *  - the operator on them: B symmetric, S = M^1/2 B M^1/2 with constant
  *    vectors in its null space, positive semi-definite (LAPACK's dsyev on
  *    the dense matrix), M positive, for the literal and random-walk
@@ -273,49 +274,58 @@ END_TEST
  * The points
  * ===================================================================== */
 
-START_TEST(points_of_a_coarse_box)
+/* A closed cylinder as a CAD tessellation makes it: one ring of `around`
+ * vertices at each end, the side as 2 around slivers h long, each cap a fan
+ * from its centre. */
+static phks_mesh *cad_cylinder(double r, double h, size_t around)
 {
-    phks_mesh *mesh = coarse_box();
+    soup s = {0};
+    for (size_t j = 0; j < 2; j++)
+        for (size_t i = 0; i < around; i++) {
+            double t = 2 * PI * i / around;
+            soup_vertex(&s, r * cos(t), r * sin(t), h * j);
+        }
+    uint32_t bottom = soup_vertex(&s, 0, 0, 0), top = soup_vertex(&s, 0, 0, h);
+    uint32_t m = (uint32_t)around;
+    for (uint32_t i = 0; i < m; i++) {
+        uint32_t a = i, b = (i + 1) % m;
+        soup_triangle(&s, a, b, b + m);
+        soup_triangle(&s, a, b + m, a + m);
+        soup_triangle(&s, b, a, bottom);
+        soup_triangle(&s, a + m, b + m, top);
+    }
+    return soup_mesh_take(&s);
+}
+
+/* The points of `mesh` under the option, against what section 13 asks of
+ * them: weights positive and summing to the area; barycentric weights that
+ * reproduce each point, and lumped masses that keep the total; no point of
+ * the surface farther than w from a point (random points of every
+ * triangle, nearest point by brute force); and no more points than a
+ * triangular lattice of side w needs for the long triangles' area, 30%
+ * over, plus one per w along their edges. */
+static void check_points(phks_mesh *mesh, const char *name)
+{
     phks_options o = options_with(PHKS_QUADRATURE_TRIANGLES);
     phks__unit_mesh um;
     phks__quadrature q;
     ck_assert_int_eq(phks__unit_mesh_for(mesh, &o, PHKS__SPAN_NONE, &um), PHKS_OK);
     ck_assert_int_eq(phks__quadrature_build(&um, &o, &q), PHKS_OK);
-    /* every triangle's longest edge is its face's diagonal; an edge of
-     * the box is shared by triangles of two faces, which may be cut
-     * differently: count them from the closed formula per face pair */
-    double w = sqrt(4 * o.tau), diag[3]; /* face normal to axis d */
-    for (int d = 0; d < 3; d++)
-        diag[d] = um.scale * hypot(BOX[(d + 1) % 3], BOX[(d + 2) % 3]);
-    size_t s[3], expect = 8;
-    for (int d = 0; d < 3; d++) {
-        s[d] = (size_t)ceil(diag[d] / w);
-        /* two faces: interior points and the diagonal's */
-        expect += 2 * ((s[d] - 1) * (s[d] - 2) + (s[d] - 1));
-    }
-    /* the 12 box edges: edge along axis e lies on the faces normal to the
-     * two other axes, each edge of the box is cut by its first claimant
-     * and, when the other face cuts it into as many parts, shared */
-    for (int e = 0; e < 3; e++) {
-        int f1 = (e + 1) % 3, f2 = (e + 2) % 3;
-        expect += 4 * ((s[f1] - 1) + (s[f1] == s[f2] ? 0 : s[f2] - 1));
-    }
-    ck_assert_uint_eq(q.vertex_count, 8);
-    ck_assert_uint_eq(q.count, expect);
+    const size_t n = mesh->vertex_count;
+    const double w = sqrt(4 * o.tau), scale = um.scale;
+    ck_assert_uint_eq(q.vertex_count, n);
 
     double total = 0, sum = 0;
-    for (size_t v = 0; v < 8; v++)
+    for (size_t v = 0; v < n; v++)
         total += um.area[v];
     for (size_t i = 0; i < q.count; i++) {
         REQUIRE(q.area[i] > 0);
         sum += q.area[i];
     }
     ck_assert_double_eq_tol(sum, total, 1e-12 * total);
-    ck_assert_double_eq_tol(total, 2 * (0.7 + 0.35 + 0.5) * um.scale * um.scale,
-                            1e-12);
-    for (size_t i = 8; i < q.count; i++) {
-        const double *b = q.bary + 3 * (i - 8);
-        const uint32_t *c = q.corner + 3 * (i - 8);
+    for (size_t i = n; i < q.count; i++) {
+        const double *b = q.bary + 3 * (i - n);
+        const uint32_t *c = q.corner + 3 * (i - n);
         REQUIRE(b[0] >= 0 && b[1] >= 0 && b[2] >= 0);
         REQUIRE(fabs(b[0] + b[1] + b[2] - 1) < 1e-15);
         for (int d = 0; d < 3; d++) {
@@ -325,17 +335,64 @@ START_TEST(points_of_a_coarse_box)
             REQUIRE(fabs(x - q.xyz[3 * i + d]) < 1e-15);
         }
     }
-    /* lumping keeps the total; each corner gets a share of its faces */
-    double lumped[8], lumped_sum = 0;
+    double *lumped = malloc(n * sizeof *lumped), lumped_sum = 0;
     phks__quadrature_lump(&q, q.area, lumped);
-    for (size_t v = 0; v < 8; v++) {
+    for (size_t v = 0; v < n; v++) {
         ck_assert_double_gt(lumped[v], 0);
         lumped_sum += lumped[v];
     }
     ck_assert_double_eq_tol(lumped_sum, total, 1e-12 * total);
+    free(lumped);
+
+    uint64_t rng = 11;
+    double long_area = 0, long_edges = 0, farthest = 0;
+    for (size_t t = 0; t < mesh->triangle_count; t++) {
+        const double *p[3];
+        double longest = 0;
+        for (int k = 0; k < 3; k++)
+            p[k] = mesh->xyz + 3 * (size_t)mesh->triangles[3 * t + k];
+        for (int k = 0; k < 3; k++) {
+            double d2 = 0;
+            for (int d = 0; d < 3; d++)
+                d2 += (p[(k + 1) % 3][d] - p[k][d]) * (p[(k + 1) % 3][d] - p[k][d]);
+            longest = fmax(longest, sqrt(d2) * scale);
+            long_edges += sqrt(d2) * scale / 2; /* each edge from both sides */
+        }
+        if (longest <= w)
+            continue;
+        long_area += phks__triangle_area(p[0], p[1], p[2]) * scale * scale;
+        for (int sample = 0; sample < 20; sample++) {
+            double u = test_random(&rng), v = test_random(&rng), x[3], best = INFINITY;
+            if (u + v > 1)
+                u = 1 - u, v = 1 - v;
+            for (int d = 0; d < 3; d++)
+                x[d] = p[0][d] + u * (p[1][d] - p[0][d]) + v * (p[2][d] - p[0][d]);
+            for (size_t i = 0; i < q.count; i++) {
+                double d2 = 0;
+                for (int d = 0; d < 3; d++)
+                    d2 += (q.xyz[3 * i + d] - x[d]) * (q.xyz[3 * i + d] - x[d]);
+                best = fmin(best, d2);
+            }
+            farthest = fmax(farthest, sqrt(best) * scale);
+        }
+    }
+    double bound = 1.3 * long_area / (sqrt(3) / 2 * w * w) + long_edges / w + n;
+    fprintf(stderr, "%s: %zu points (bound %.0f), farthest surface point "
+            "%.3f w from one\n", name, q.count, bound, farthest / w);
+    ck_assert_double_gt(long_area, 0);
+    ck_assert_double_lt(farthest, w);
+    ck_assert_double_lt((double)q.count, bound);
     phks__quadrature_release(&q);
     phks__unit_mesh_release(&um);
-    phks_mesh_free(mesh);
+}
+
+START_TEST(points_cover)
+{
+    phks_mesh *box = coarse_box(), *cylinder = cad_cylinder(0.35, 1, 64);
+    check_points(box, "box of 12 triangles");
+    check_points(cylinder, "cylinder of slivers and fans");
+    phks_mesh_free(box);
+    phks_mesh_free(cylinder);
 }
 END_TEST
 
@@ -461,13 +518,16 @@ START_TEST(box_eigenvalues)
 }
 END_TEST
 
-/* The issue's acceptance, with the library's default options. A feature
- * point is a vertex, so the coarse box can only have its corners (and
- * region merging on 12 triangles keeps 2 of them: a maximum needs its
- * whole star of triangles); the fine box also has maxima inside its faces,
- * which nothing of the coarse box can match. So the score is also taken
- * over the features both can have: those of the coarse box, and those of
- * the fine box at a vertex of the coarse box. */
+/* The issue's acceptance, with the library's default options: the box of
+ * 12 triangles scores against the fine box below a fifth of the fine box
+ * against a fine cylinder, and far below what it did without the option
+ * (heat does not cross its faces). A feature point is a vertex, so the
+ * coarse box can only have its corners, while the fine box also has
+ * maxima inside its faces. The default score (docs/method.md section 14)
+ * is taken from the query's side, the coarse box's corners, and over the
+ * features both boxes can have (those of the coarse box, and those of the
+ * fine box at a vertex of the coarse box) the nearest distances alone stay
+ * below that fifth too. */
 START_TEST(box_scores)
 {
     phks_mesh *coarse = coarse_box(), *fine = fine_box();
@@ -512,7 +572,7 @@ START_TEST(box_scores)
             "cylinder %.2f (%.2f)\n", score[1][0], score[0][0], shared,
             score[1][1], score[0][1]);
     ck_assert_double_lt(shared, score[1][1] / 5);
-    ck_assert_double_lt(score[1][0], score[1][1]);
+    ck_assert_double_lt(score[1][0], score[1][1] / 5);
     ck_assert_double_lt(score[1][0], score[0][0] / 20);
     phks_mesh_free(coarse);
     phks_mesh_free(fine);
@@ -526,7 +586,7 @@ int main(void)
     TCase *tc = tcase_create("quadrature");
     tcase_set_timeout(tc, 600);
     tcase_add_test(tc, no_long_triangle_same_bits);
-    tcase_add_test(tc, points_of_a_coarse_box);
+    tcase_add_test(tc, points_cover);
     tcase_add_test(tc, operator_symmetric_psd);
     tcase_add_test(tc, square_eigenvalues);
     tcase_add_test(tc, box_eigenvalues);
