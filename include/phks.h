@@ -199,18 +199,19 @@ typedef enum phks_quadrature {
      * cross the face: the signature describes the tessellation. */
     PHKS_QUADRATURE_VERTICES = 0,
     /* Also inside every triangle whose longest edge exceeds sqrt(4 tau)
-     * (unit box): it is cut into s x s sub-triangles, s = ceil(longest
-     * edge / sqrt(4 tau)), whose corners carry a third of their area each.
+     * (unit box): it is covered by a triangular lattice of side at most
+     * sqrt(4 tau), as many points as its area needs whatever its shape,
+     * each carrying a third of the area of the lattice's triangles at it.
      * The operator is built on these points and its eigenvectors are read
      * at the vertices (which are among them): vertex ids stay the input's
      * and no point is visible outside the library. The local areas of
      * PHKS_HKS_SCALING_LOCAL_AREA and the principal box integrate over the
      * triangles too. A mesh without such a triangle gets the same bits as
-     * with VERTICES (docs/method.md section 13). The points can be many
-     * times the vertices (9 x on some of PSB's Bearing models) and the
-     * solve is exact on all of them: time and memory grow with them
-     * (docs/benchmarks.md). Meshes on the HKS-simp path keep the
-     * vertices' operator. */
+     * with VERTICES (docs/method.md section 13). The points can be a few
+     * times the vertices (3.2 x on PSB's coarsest Bearing models, 1.04 x
+     * over all of PSB) and the solve is exact on all of them: time and
+     * memory grow with them (docs/benchmarks.md). Meshes on the HKS-simp
+     * path keep the vertices' operator. */
     PHKS_QUADRATURE_TRIANGLES = 1
 } phks_quadrature;
 

@@ -35,14 +35,22 @@
 #include <math.h>
 #include <string.h>
 
+/* Lengths this close are equal (relative): the lattices on the two
+ * longest sides of an isosceles triangle are each other's mirror image,
+ * and a segment an exact multiple of the width long has that many parts,
+ * so that no choice depends on rounding; else a rotated copy of a
+ * symmetric mesh would get other points (and another signature) than the
+ * original. */
+#define TIE 1e-9
+
 /* Parts of at most `width` for a segment `length` long, 1 if it is no
  * longer; beyond any mesh the unit box holds at a tau options allow (the
  * count check of phks__quadrature_build refuses it). */
 static uint32_t parts(double length, double width)
 {
-    if (!(length > width))
+    double s = ceil(length / width - TIE);
+    if (!(s > 1))
         return 1;
-    double s = ceil(length / width);
     return s < 1e6 ? (uint32_t)s : 1000000u;
 }
 
@@ -59,11 +67,10 @@ static double edge_length(const phks_mesh *mesh, double scale, uint32_t u,
     return sqrt(d2) * scale;
 }
 
-/* A long triangle's lattice (docs/method.md section 13): base a b (the
- * edge slot of its longest edge, the first of equals), apex p, the base
- * cut into n parts and the height into r rows; xi is where p's foot falls
- * on the base, as a fraction of it. rows == 0 marks a triangle no longer
- * than the width (the vertex quadrature). */
+/* A long triangle's lattice (docs/method.md section 13): base a b, apex
+ * p, the base cut into n parts and the height into r rows; xi is where p's
+ * foot falls on the base line, as a fraction of the base. rows == 0 marks
+ * a triangle no longer than the width (the vertex quadrature). */
 typedef struct {
     uint32_t base;
     uint32_t parts;
@@ -71,19 +78,50 @@ typedef struct {
     double xi;
 } lattice;
 
+/* Edge slot e of triangle c (e and e + 1) as a pair of vertex ids, lower
+ * first: the tie-break between the sides of an equilateral triangle. */
+static uint64_t edge_key(const uint32_t *c, uint32_t e)
+{
+    uint32_t u = c[e], v = c[(e + 1) % 3];
+    return u < v ? (uint64_t)u << 32 | v : (uint64_t)v << 32 | u;
+}
+
+/* The base: the side whose length no other side shares, the longest if
+ * none does. Any side would do (rows parallel to it are no longer than
+ * it), but the lattice is symmetric about the base's perpendicular
+ * bisector only: an isosceles triangle takes its odd side, so that its
+ * lattice, and the lattice of a mirror-image twin, are mirror images
+ * whatever the vertex order; an equilateral one gets the congruent
+ * subdivision's lattice from every side. */
+static uint32_t base_of(const uint32_t *c, const double length[3])
+{
+    for (uint32_t e = 0; e < 3; e++) {
+        double x = length[(e + 1) % 3], y = length[(e + 2) % 3];
+        if (fabs(x - y) <= TIE * fmax(x, y) &&
+            fabs(length[e] - x) > TIE * fmax(length[e], x))
+            return e;
+    }
+    uint32_t base = 3;
+    for (uint32_t e = 0; e < 3; e++)
+        if (length[e] >= fmax(length[0], fmax(length[1], length[2])) * (1 - TIE) &&
+            (base == 3 || edge_key(c, e) < edge_key(c, base)))
+            base = e;
+    return base;
+}
+
 static lattice lattice_of(const phks_mesh *mesh, double scale, double width,
                           size_t t)
 {
     const uint32_t *c = mesh->triangles + 3 * t;
     lattice g = {0, 1, 0, 0};
-    double longest = 0;
+    double length[3], longest = 0;
     for (uint32_t e = 0; e < 3; e++) {
-        double l = edge_length(mesh, scale, c[e], c[(e + 1) % 3]);
-        if (l > longest)
-            g.base = e, longest = l;
+        length[e] = edge_length(mesh, scale, c[e], c[(e + 1) % 3]);
+        longest = fmax(longest, length[e]);
     }
-    if (!(longest > width))
+    if (parts(longest, width) == 1)
         return g;
+    g.base = base_of(c, length);
     const double *a = mesh->xyz + 3 * (size_t)c[g.base];
     const double *b = mesh->xyz + 3 * (size_t)c[(g.base + 1) % 3];
     const double *p = mesh->xyz + 3 * (size_t)c[(g.base + 2) % 3];
@@ -93,8 +131,8 @@ static lattice lattice_of(const phks_mesh *mesh, double scale, double width,
         bb += (b[d] - a[d]) * (b[d] - a[d]);
     }
     double area = phks__triangle_area(a, b, p) * scale * scale;
-    g.parts = parts(longest, width);
-    g.rows = parts(2 * area / longest, width * (sqrt(3) / 2));
+    g.parts = parts(length[g.base], width);
+    g.rows = parts(2 * area / length[g.base], width * (sqrt(3) / 2));
     g.xi = dot / bb;
     return g;
 }
@@ -110,8 +148,10 @@ static void row_span(const lattice *g, uint32_t j, double *start, double *end,
     double up = (double)j / g->rows, odd = (double)(j & 1) / 2;
     *start = up * g->xi;
     *end = 1 - up * (1 - g->xi);
-    *first = (int64_t)ceil(g->parts * *start + 0.25 - odd);
-    *last = (int64_t)floor(g->parts * *end - 0.25 - odd);
+    /* (an exact tie, as on a symmetric triangle, must not be left to
+     * rounding either) */
+    *first = (int64_t)ceil(g->parts * *start + 0.25 - odd - TIE);
+    *last = (int64_t)floor(g->parts * *end - 0.25 - odd + TIE);
 }
 
 static uint32_t inner_count(const lattice *g, uint32_t j)

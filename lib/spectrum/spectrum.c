@@ -273,15 +273,16 @@ static phks_status compute_quadrature(const phks__unit_mesh *um,
         st = finish_vectors(spec, m, op.mass, opt);
     phks__operator_release(&op);
     if (st == PHKS_OK) {
-        /* the vertices' rows, column by column (column e moves down from
-         * e m to e n <= e m: front to back never overwrites a later one) */
-        for (size_t e = 0; e < spec->count; e++)
-            memmove(spec->vectors + e * n, spec->vectors + e * m,
-                    n * sizeof(double));
-        double *shrunk = phks__realloc_array(spec->vectors, n,
-                                             spec->count * sizeof(double));
-        if (shrunk)
-            spec->vectors = shrunk;
+        /* the vertices' rows, column by column */
+        double *rows = phks__malloc_array(n, spec->count * sizeof(double));
+        if (!rows)
+            st = phks__fail_oom("spectrum");
+        for (size_t e = 0; rows && e < spec->count; e++)
+            memcpy(rows + e * n, spec->vectors + e * m, n * sizeof(double));
+        if (rows) {
+            phks__free(spec->vectors);
+            spec->vectors = rows;
+        }
     }
     return st;
 }
