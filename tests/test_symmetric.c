@@ -218,19 +218,28 @@ static void add_grid(soup *s, int g)
         }
 }
 
-/* count equilateral triangles of side 0.01 at the points of a cubic
- * lattice of spacing 0.2: in a unit box far apart for the kernel
- * (cut-off 3.5 sqrt(4 tau) = 0.099), each its own component. */
-static void add_separate_triangles(soup *s, int per_side, size_t count)
+/* count triangles at the points of a cubic lattice of spacing 0.2: in a
+ * unit box far apart for the kernel (cut-off 3.5 sqrt(4 tau) = 0.099,
+ * and the box's side at most sqrt(3) per_side / 5 whatever its frame),
+ * each its own component. Equilateral of side 0.01, or with `varied`
+ * scalene, sides 0.01 to 0.014, no two alike (shapes repeat every 385). */
+static void add_separate_triangles(soup *s, int per_side, size_t count,
+                                   bool varied)
 {
     size_t made = 0;
     for (int i = 0; i < per_side && made < count; i++)
         for (int j = 0; j < per_side && made < count; j++)
             for (int k = 0; k < per_side && made < count; k++, made++) {
                 double x = 0.2 * i, y = 0.2 * j, z = 0.2 * k, e = 0.01;
+                double apex = 0.5, height = sqrt(3.0) / 2;
+                if (varied) {
+                    e *= 1 + 0.1 * (double)(made % 5);
+                    apex = 0.2 + 0.1 * (double)(made % 7);
+                    height = 0.5 + 0.05 * (double)(made % 11);
+                }
                 uint32_t a = soup_vertex(s, x, y, z);
                 uint32_t b = soup_vertex(s, x + e, y, z);
-                uint32_t c = soup_vertex(s, x + e / 2, y + e * sqrt(3.0) / 2, z);
+                uint32_t c = soup_vertex(s, x + e * apex, y + e * height, z);
                 soup_triangle(s, a, b, c);
             }
 }
@@ -584,12 +593,20 @@ START_TEST(test_hostile)
 
     /* 200 triangles: 200 zeros, then 400 equal values; 300 asked splits
      * those, so 200 pairs remain */
-    add_separate_triangles(&s, 6, 200);
+    add_separate_triangles(&s, 6, 200, false);
     mesh = soup_mesh_take(&s);
     check_mesh(mesh, 300, 200, "200 separate triangles");
     phks_mesh_free(mesh);
+    /* 180 triangles of as many shapes: 180 zeros, many more than the
+     * Lanczos solver's block (it deflates them), then distinct values;
+     * 300 asked, more than the zeros, so the solvers run (Lanczos used to
+     * miss zeros here and return positive values in their place) */
+    add_separate_triangles(&s, 6, 180, true);
+    mesh = soup_mesh_take(&s);
+    check_mesh(mesh, 300, 180, "180 scalene triangles");
+    phks_mesh_free(mesh);
     /* 512 triangles: the zero cluster fills the request and is kept whole */
-    add_separate_triangles(&s, 8, 512);
+    add_separate_triangles(&s, 8, 512, false);
     mesh = soup_mesh_take(&s);
     for (int op = 0; op < 2; op++) {
         phks_spectrum *spec = check_solvers(mesh, op, 300, 512, "512 triangles");

@@ -36,6 +36,13 @@
  *  Meshes too small for a Krylov basis (n < 8 BLOCK, or fewer than
  *  k + guard + 4 BLOCK usable columns, or no room for the probe) go to the
  *  dense solver directly.
+ *  Where the kernel splits the mesh into more components than a block (a
+ *  soup of separate pieces: that many zero eigenvalues, of which block
+ *  Lanczos finds at most a block's copies, and it used to converge with
+ *  the others missing), B's null space, known exactly, is deflated: the
+ *  probe shows more than BLOCK zeros, the kernel's components confirm
+ *  them, their null vectors are the first pairs and steps 1 to 3 run on
+ *  the orthogonal complement for the others, every new block projected.
  *
  * The whole solve runs in the numbering of the operator's pair layout
  * (lanczos_pairs.c: the points in Morton order), whose kernel applies B
@@ -53,7 +60,8 @@
  * fallbacks). The pieces: lanczos_filter.c (p(B) on a block),
  * lanczos_basis.c (the basis, its orthogonalisation and QR, a block step),
  * lanczos_tridiag.c (T's eigenpairs and the convergence check),
- * lanczos_extract.c (the eigenpairs of B from the basis), and beneath them
+ * lanczos_extract.c (the eigenpairs of B from the basis), lanczos_null.c
+ * (the null space and the projection onto its complement), and beneath them
  * lanczos_pairs.c, lanczos_gram.c and lanczos_ritz.c (the products).
  */
 #include "eigen/lanczos.h"
@@ -88,31 +96,61 @@
 /* Largest n for which a solve that did not converge is redone densely
  * (dense.c's own limit). */
 #define DENSE_FALLBACK_MAX_N 16384
+/* The probe's Ritz values of B below ZERO_LEVEL lmax count as zeros. On a
+ * connected mesh, whose k-th eigenvalue lies near lmax / 2 (see
+ * FILTER_GROWTH), next to none lie this low, so the kernel's components
+ * (a pass over every entry of B) are looked for only where more than a
+ * block of them show; a soup of tiny pieces gives that many zeros within
+ * a few steps. */
+#define ZERO_LEVEL 1e-3
 
-/* A short plain block Lanczos on B: an upper bound on lmax and the cut a
- * with about `target` eigenvalues below it (Gauss quadrature estimate of
- * the counting function from the random start block). Its basis is kept
- * orthogonal to the last two blocks only: Lanczos without full
+/* The dimension of the space the solve runs on: n, less the null space
+ * where it runs on its complement; and the basis columns that fit in it,
+ * in whole blocks. */
+static size_t dimension(const phks__lanczos_engine *eng)
+{
+    return eng->pm->n - (eng->null ? eng->null->count : 0);
+}
+
+static size_t usable_columns(const phks__lanczos_engine *eng)
+{
+    return dimension(eng) - dimension(eng) % BLOCK;
+}
+
+/* A fixed random block (seed), on the complement of the null space where
+ * there is one, made orthonormal: r its R, *smallest as phks__lanczos_qr. */
+static phks_status start_block(phks__lanczos *L, const phks__lanczos_engine *eng,
+                               uint64_t seed, double *r, double *smallest)
+{
+    phks__lanczos_random_block(L->v, L->n, L->b, seed);
+    if (eng->null)
+        phks__lanczos_null_cols(eng->null, L->v, L->n, L->b);
+    return phks__lanczos_qr(L, L->v, r, smallest);
+}
+
+/* A short plain block Lanczos on B: an upper bound on lmax, the cut a
+ * with about `target` eigenvalues below it and *zeros, about how many are
+ * zero (Gauss quadrature estimates of the counting function from the
+ * random start block, whatever the number of copies of 0 in the null
+ * space). Its basis is kept orthogonal to the last two blocks only: Lanczos without full
  * re-orthogonalisation still gives the Gauss quadrature of the start
  * block's spectral measure (Greenbaum; the copies of converged Ritz values
  * share their weight), and the extreme Ritz values stay within the
  * spectrum, at a small fraction of the cost. */
-static phks_status probe(phks__lanczos_engine *eng, const phks_options *opt, size_t k,
-                         size_t target, double *lmax, double *cut)
+static phks_status probe(phks__lanczos_engine *eng, size_t k, size_t target,
+                         double *lmax, double *cut, double *zeros)
 {
-    size_t n = eng->pm->n, b = BLOCK;
+    size_t n = eng->pm->n, b = BLOCK, usable = usable_columns(eng);
     size_t steps = PROBE_STEPS;
-    if ((steps + 1) * b > n - n % b)
-        steps = (n - n % b) / b - 1;
+    if ((steps + 1) * b > usable)
+        steps = usable / b - 1;
     phks__lanczos L = {.n = n, .k = k, .b = b, .local = true, .cap = steps * b};
     phks_status st = phks__lanczos_allocate(&L, L.cap);
     double r[BLOCK * BLOCK], smallest;
     phks__lanczos_filter plain = {1, 0, 1};
     phks__lanczos_run rc = {eng, &plain};
-    if (st == PHKS_OK) {
-        phks__lanczos_random_block(L.v, n, b, 0);
-        st = phks__lanczos_qr(&L, L.v, r, &smallest);
-    }
+    if (st == PHKS_OK)
+        st = start_block(&L, eng, 0, r, &smallest);
     size_t m = b;
     while (st == PHKS_OK) {
         st = phks__lanczos_step(&L, &rc, m, r);
@@ -131,15 +169,19 @@ static phks_status probe(phks__lanczos_engine *eng, const phks_options *opt, siz
         double top = -L.theta[0];
         double res = phks__lanczos_ritz_residual(&L, r, 0);
         *lmax = (top + res) * 1.01;
-        /* count estimate: n / b * sum of |first-block components|^2 */
-        double count = 0;
+        /* count estimate: n / b * sum of |first-block components|^2 (n
+         * the dimension the solve runs on) */
+        double count = 0, dim = (double)dimension(eng);
         *cut = *lmax;
+        *zeros = 0;
         for (size_t e = m; e-- > 0;) {
             const double *s = L.ritz + e * m;
             double w = 0;
             for (size_t i = 0; i < b; i++)
                 w += s[i] * s[i];
-            count += w * (double)n / (double)b;
+            count += w * dim / (double)b;
+            if (-L.theta[e] <= ZERO_LEVEL * *lmax)
+                *zeros = count;
             if (count >= (double)target) {
                 *cut = -L.theta[e];
                 break;
@@ -180,10 +222,8 @@ static phks_status solve(phks__lanczos_engine *eng, const solve_plan *plan,
     phks_status st = phks__lanczos_allocate(&L, 2 * q + 4 * b);
     phks__lanczos_run rc = {eng, f};
     double r[BLOCK * BLOCK], smallest;
-    if (st == PHKS_OK) {
-        phks__lanczos_random_block(L.v, n, b, 1);
-        st = phks__lanczos_qr(&L, L.v, r, &smallest);
-    }
+    if (st == PHKS_OK)
+        st = start_block(&L, eng, 1, r, &smallest);
     size_t m = b, last_check = 0;
     /* filtered Lanczos converges with a basis of somewhat more than 1.5 q
      * (a first check at 1.7 q instead of 1.5 q saves a check on most
@@ -277,20 +317,33 @@ static phks_status solve(phks__lanczos_engine *eng, const solve_plan *plan,
     return st;
 }
 
-/* The filtered solves, then plain Lanczos when they do not converge;
- * values and vectors in the pair matrix's numbering. */
-static phks_status solve_all(phks__lanczos_engine *eng, size_t k, size_t guard,
-                             size_t cap, double norm, const phks_options *opt,
-                             phks__lanczos_out *out)
+/* Basis sizes for a solve of k pairs in a space of dimension dim, sized
+ * for `asked` pairs: the guard pairs the convergence check watches and the
+ * basis's cap. Plain Lanczos may need a basis of up to about 12 asked;
+ * Lanczos on the filter about 2 asked. False when dim leaves too little
+ * room: the dense solve is exact and cheap there. */
+static bool plan_sizes(size_t dim, size_t asked, size_t k, size_t *guard,
+                       size_t *cap)
+{
+    size_t b = BLOCK, usable = dim - dim % b;
+    *guard = asked / 8 + 2 * b;
+    *cap = 12 * asked + 8 * b;
+    if (*cap > usable - b)
+        *cap = usable - b;
+    return dim >= 8 * b && *cap >= k + *guard + 4 * b &&
+           (PROBE_STEPS + 1) * b <= usable;
+}
+
+/* The filtered solves from the probe's lmax and cut, then plain Lanczos
+ * when they do not converge. */
+static phks_status solve_probed(phks__lanczos_engine *eng, size_t k,
+                                size_t guard, size_t cap, double norm,
+                                double lmax, double cut,
+                                const phks_options *opt, phks__lanczos_out *out)
 {
     size_t b = BLOCK;
-    double lmax = 0, cut = 0;
     bool cut_low = false;
-    phks_status st = probe(eng, opt, k, (size_t)((double)(k + guard) * CUT_MARGIN),
-                           &lmax, &cut);
-    if (st != PHKS_OK)
-        return st;
-    st = PHKS_ERROR_NO_CONVERGENCE;
+    phks_status st = PHKS_ERROR_NO_CONVERGENCE;
     for (int attempt = 0; attempt < 3 && cut > 0 && cut < lmax; attempt++) {
         double d = round(FILTER_GROWTH / acosh((lmax + cut) / (lmax - cut)));
         int degree = d < 2 ? 2 : d > MAX_DEGREE ? MAX_DEGREE : (int)d;
@@ -309,29 +362,86 @@ static phks_status solve_all(phks__lanczos_engine *eng, size_t k, size_t guard,
     return solve(eng, &plain, opt, out, &cut_low);
 }
 
+/* B's null space z deflated: its first k vectors are the first pairs
+ * (exactly 0), and Lanczos on its orthogonal complement finds the others.
+ * Block Lanczos finds at most a block's copies of a multiple eigenvalue
+ * (further ones only as rounding lets them in, too slowly for hundreds:
+ * it converged with zeros missing), and the null space has one copy of 0
+ * per component. The basis is sized for all k pairs, as without the
+ * deflation: past the zeros the spectrum is the union of the pieces', as
+ * crowded as there are pieces (300 small spheres: sized for the 100
+ * pairs past the zeros, neither solve converged). */
+static phks_status solve_deflated(phks__lanczos_engine *eng,
+                                  const phks__operator_matrix *op,
+                                  const phks__lanczos_null *z, size_t k,
+                                  const phks_options *opt, phks__lanczos_out *out)
+{
+    size_t n = op->n, zeros = z->count < k ? z->count : k, rest = k - zeros;
+    size_t guard, cap;
+    phks__lanczos_null_vectors(z, zeros, out->vectors, n);
+    for (size_t e = 0; e < zeros; e++)
+        out->values[e] = 0;
+    /* more zeros than asked for: the k-th and the next are both 0 */
+    out->next = z->count > k ? 0 : INFINITY;
+    if (rest == 0)
+        return PHKS_OK;
+    if (!plan_sizes(n - z->count, k, rest, &guard, &cap))
+        return PHKS_ERROR_NO_CONVERGENCE;
+    phks__lanczos_out part = {out->values + zeros, out->vectors + zeros * n,
+                              INFINITY, INFINITY};
+    double lmax = 0, cut = 0, none = 0;
+    eng->null = z;
+    phks_status st = probe(eng, rest, (size_t)((double)(rest + guard) * CUT_MARGIN),
+                           &lmax, &cut, &none);
+    if (st == PHKS_OK)
+        st = solve_probed(eng, rest, guard, cap, op->norm_bound, lmax, cut,
+                          opt, &part);
+    eng->null = NULL;
+    out->next = part.next;
+    return st;
+}
+
+/* The probe; then the null space deflated where the probe shows more
+ * zeros than a block and the kernel's components confirm them, or else
+ * the filtered solves. Values and vectors in the pair matrix's
+ * numbering. */
+static phks_status solve_all(phks__lanczos_engine *eng,
+                             const phks__operator_matrix *op, size_t k,
+                             size_t guard, size_t cap, const phks_options *opt,
+                             phks__lanczos_out *out)
+{
+    double lmax = 0, cut = 0, zeros = 0;
+    phks_status st = probe(eng, k, (size_t)((double)(k + guard) * CUT_MARGIN),
+                           &lmax, &cut, &zeros);
+    if (st != PHKS_OK)
+        return st;
+    if (zeros > BLOCK) {
+        phks__lanczos_null z;
+        st = phks__lanczos_null_build(op, eng->pm, &z);
+        bool deflate = st == PHKS_OK && z.count > BLOCK;
+        if (deflate)
+            st = solve_deflated(eng, op, &z, k, opt, out);
+        phks__lanczos_null_release(&z);
+        if (st != PHKS_OK || deflate)
+            return st;
+    }
+    return solve_probed(eng, k, guard, cap, op->norm_bound, lmax, cut, opt, out);
+}
+
 phks_status phks__eigen_lanczos(const phks__operator_matrix *op, size_t k,
                                const phks_options *opt, double *values,
                                double *vectors, double *next)
 {
-    size_t n = op->n, b = BLOCK;
-    /* Plain Lanczos may need a basis of up to about 12 k; Lanczos on the
-     * filter about 2 k. When n leaves too little room, the dense solve is
-     * exact and cheap. */
-    size_t usable = n - n % b;
-    size_t guard = k / 8 + 2 * b;
-    size_t cap = 12 * k + 8 * b;
-    if (cap > usable - b)
-        cap = usable - b;
-    if (n < 8 * b || cap < k + guard + 4 * b ||
-        (PROBE_STEPS + 1) * b > usable)
+    size_t n = op->n, guard, cap;
+    if (!plan_sizes(n, k, k, &guard, &cap))
         return phks__eigen_dense(op, k, opt, values, vectors, next);
     phks__operator_pairs pm;
     phks_status st = phks__operator_pairs_build(op, phks__thread_count(opt), &pm);
     if (st != PHKS_OK)
         return st;
-    phks__lanczos_engine eng = {&pm, phks__cpu_avx2(), opt, 0};
+    phks__lanczos_engine eng = {&pm, phks__cpu_avx2(), opt, 0, NULL};
     phks__lanczos_out out = {values, vectors, INFINITY, INFINITY};
-    st = solve_all(&eng, k, guard, cap, op->norm_bound, opt, &out);
+    st = solve_all(&eng, op, k, guard, cap, opt, &out);
     if (next)
         *next = out.next;
     if (st == PHKS_OK) {
@@ -348,12 +458,9 @@ phks_status phks__eigen_lanczos(const phks__operator_matrix *op, size_t k,
         phks__free(column);
     }
     phks__operator_pairs_release(&pm);
-    /* Not expected on connected meshes; the dense solver is exact where
-     * it fits. Where it does not, ARPACK: much slower, but it deflates the
-     * null space exactly and checks for missed copies of a multiple
-     * eigenvalue, which is what stops this solver where the kernel splits
-     * a mesh into many more components than its block (hundreds of
-     * separate triangles: that many zero eigenvalues). */
+    /* Not expected; the dense solver is exact where it fits. Where it
+     * does not, ARPACK: much slower, but it deflates the null space too
+     * and checks for missed copies of a multiple eigenvalue. */
     if (st == PHKS_ERROR_NO_CONVERGENCE && n <= DENSE_FALLBACK_MAX_N)
         return phks__eigen_dense(op, k, opt, values, vectors, next);
     if (st == PHKS_ERROR_NO_CONVERGENCE)

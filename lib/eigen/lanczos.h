@@ -76,12 +76,24 @@ void phks__block_times_upper(double *w, size_t n, const double *u,
 
 #define PHKS__LANCZOS_BLOCK PHKS__PAIR_BLOCK
 
-/* The operator's products as the solver runs them. */
+/* B's null space in the pair numbering (lanczos_null.c): one unit vector
+ * per component of the kernel's graph, row r's entry z[r] in the vector of
+ * component[r]. */
+typedef struct phks__lanczos_null {
+    size_t count;           /* components                                */
+    uint32_t *component;    /* n                                         */
+    double *z;              /* n                                         */
+    double *coef;           /* count x PHKS__LANCZOS_BLOCK: scratch      */
+} phks__lanczos_null;
+
+/* The operator's products as the solver runs them; with null, on the
+ * orthogonal complement of B's null space (every new block projected). */
 typedef struct phks__lanczos_engine {
     const phks__operator_pairs *pm;
     bool avx2;
     const phks_options *opt;
     double fraction;        /* progress reported between products */
+    const phks__lanczos_null *null; /* NULL: the whole space        */
 } phks__lanczos_engine;
 
 /* The filter p(B) = T_d((c I - B) / e) (degree 1 with c = 0, e = 1: -B,
@@ -164,6 +176,21 @@ phks_status phks__lanczos_qr(phks__lanczos *L, double *w, double *r,
                              double *smallest);
 phks_status phks__lanczos_step(phks__lanczos *L, const phks__lanczos_run *rc,
                                size_t m, double *r);
+
+/* lanczos_null.c: the components of op's kernel graph and their null
+ * vectors in pm's numbering; the projection of a row-major n x
+ * PHKS__LANCZOS_BLOCK block or of `cols` column-major columns onto their
+ * orthogonal complement; the first `count` null vectors as the columns of
+ * vectors (n x count). */
+phks_status phks__lanczos_null_build(const phks__operator_matrix *op,
+                                     const phks__operator_pairs *pm,
+                                     phks__lanczos_null *z);
+void phks__lanczos_null_release(phks__lanczos_null *z);
+void phks__lanczos_null_rows(const phks__lanczos_null *z, double *wr, size_t n);
+void phks__lanczos_null_cols(const phks__lanczos_null *z, double *w, size_t n,
+                             size_t cols);
+void phks__lanczos_null_vectors(const phks__lanczos_null *z, size_t count,
+                                double *vectors, size_t n);
 
 /* lanczos_tridiag.c: T's tridiagonal reduction and its eigenpairs il..iu
  * (1-based), both at once (eig_t); Ritz vectors of T; a Ritz pair's

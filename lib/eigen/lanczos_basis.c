@@ -300,7 +300,8 @@ static bool cholesky_qr(phks__lanczos *L, const phks__lanczos_engine *e, double 
  * span it should avoid, so weak columns are replaced by random ones, Q is
  * re-orthogonalised against the basis, and R is recomputed as the exact
  * projection Q^T w. `scale` is the norm of w before the projections. */
-static phks_status next_block(phks__lanczos *L, size_t m, double *r, double scale)
+static phks_status next_block(phks__lanczos *L, const phks__lanczos_null *null,
+                              size_t m, double *r, double scale)
 {
     size_t n = L->n, b = L->b;
     double smallest;
@@ -318,6 +319,8 @@ static phks_status next_block(phks__lanczos *L, size_t m, double *r, double scal
         if (fabs(r[j * b + j]) <= BREAKDOWN * big || big == 0)
             memcpy(q + j * n, L->rows[0] + j * n, n * sizeof(double));
     for (int pass = 0; pass < 2; pass++) {
+        if (null)
+            phks__lanczos_null_cols(null, q, n, b);
         project(L, 0, m, q, -1);
         project(L, 0, m, q, -1);
         st = phks__lanczos_qr(L, q, NULL, &smallest);
@@ -339,10 +342,19 @@ phks_status phks__lanczos_step(phks__lanczos *L, const phks__lanczos_run *rc, si
                                         L->rows, n, &wr);
     if (fst != PHKS_OK)
         return fst;
+    const phks__lanczos_null *null = rc->eng->null;
+    /* p(B) magnifies the null-space part of the rounding errors (p is
+     * largest at 0): it goes before it counts in the norms, and again
+     * after the Gram-Schmidt, whose own rounding the QR would magnify
+     * where the residual is small. */
+    if (null)
+        phks__lanczos_null_rows(null, wr, n);
     row_block_norms(wr, n, norm);
     for (size_t j = 0; j < b; j++)
         scale = fmax(scale, norm[j]);
     orthogonalise(L, rc->eng, m, wr, (long)(m - b));
+    if (null)
+        phks__lanczos_null_rows(null, wr, n);
     /* W as it is, for Householder's QR and the repairs */
     memcpy(L->saved, wr, n * b * sizeof(double));
     if (cholesky_qr(L, rc->eng, wr, r)) {
@@ -355,5 +367,5 @@ phks_status phks__lanczos_step(phks__lanczos *L, const phks__lanczos_run *rc, si
         }
     }
     phks__lanczos_to_cols(rc->eng, L->saved, L->w, n);
-    return next_block(L, m, r, scale);
+    return next_block(L, null, m, r, scale);
 }
