@@ -41,10 +41,10 @@ phks_status phks_options_init(phks_options *options)
     options->tolerance = 1e-10;
     options->simplify_above = 25000;
     options->simplify_target = 10000;
-    /* The vertices' quadrature: the triangles' does not make retrieval
-     * worse (docs/retrieval.md), but costs time in proportion to the
-     * points it adds, up to 22 x on PSB's coarsest Bearing models
-     * (docs/benchmarks.md). */
+    /* The vertices' quadrature: the triangles' gains on partial and
+     * incomplete queries but loses on complete ones (docs/retrieval.md),
+     * and costs time in proportion to the points it adds, 3-4 x on PSB's
+     * coarsest Bearing models (docs/benchmarks.md). */
     options->quadrature = PHKS_QUADRATURE_VERTICES;
     /* Points judged alone mistake a partial scan for any shape with a
      * few similar points; their layout along the surface tells them
