@@ -1,5 +1,6 @@
 /* soup.c - a growable triangle soup and the meshes the tests build in it. */
 #include "soup.h"
+#include "shapes.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -192,4 +193,18 @@ void crop_z(soup *s, double zmin)
     free(map);
     soup_free(s);
     *s = out;
+}
+
+phks_mesh *creature_mesh(unsigned kind, unsigned pose)
+{
+    double angles[SHAPE_MAX_JOINTS];
+    shape_mesh s;
+    shape_creature_pose(kind, pose, angles);
+    ck_assert_int_eq(shape_creature(kind, angles, 1, &s), 0);
+    phks_mesh *m;
+    ck_assert_int_eq(phks_mesh_create(s.xyz, s.vertex_count, s.triangles,
+                                      s.triangle_count, &m),
+                     PHKS_OK);
+    shape_mesh_free(&s);
+    return m;
 }

@@ -41,6 +41,10 @@ void add_icosphere(soup *out, unsigned subdiv, const double center[3],
 void add_torus(soup *s, size_t nu, size_t nv, double big, double small,
                double jitter, uint64_t *rng);
 
+/* The library mesh of generated creature `kind` (tests/fixtures/shapes.h)
+ * in pose `pose`, at resolution 1 (500 to 1,300 vertices). */
+phks_mesh *creature_mesh(unsigned kind, unsigned pose);
+
 /* Keeps the triangles whose centroid has z >= zmin, and their vertices. */
 void crop_z(soup *s, double zmin);
 

@@ -3,26 +3,12 @@
  * for blob once the persistence is set aside; in another order, the same
  * points in that order; and it refuses what it documents it refuses.
  * Small generated creatures (500-1300 vertices) keep it fast. */
-#include "testutil.h"
+#include "soup.h"
 #include "shapes.h"
 #include "partial.h"
 
 #include <stdlib.h>
 #include <string.h>
-
-static phks_mesh *creature(unsigned kind, unsigned pose)
-{
-    double angles[SHAPE_MAX_JOINTS];
-    shape_mesh s;
-    shape_creature_pose(kind, pose, angles);
-    ck_assert_int_eq(shape_creature(kind, angles, 1, &s), 0);
-    phks_mesh *m;
-    ck_assert_int_eq(phks_mesh_create(s.xyz, s.vertex_count, s.triangles,
-                                      s.triangle_count, &m),
-                     PHKS_OK);
-    shape_mesh_free(&s);
-    return m;
-}
 
 /* A cut piece: a boundary, so the taper moves the maxima and the
  * layout's boundary distances are finite. */
@@ -114,7 +100,7 @@ START_TEST(picked_vertices_give_the_same_signature)
     paper.matching = PHKS_MATCHING_NEAREST;
     paper.hks_scaling = PHKS_HKS_SCALING_NONE;
     paper.boundary_margin = 0;
-    phks_mesh *closed = creature(SHAPE_HAND, 2);
+    phks_mesh *closed = creature_mesh(SHAPE_HAND, 2);
     phks_mesh *cut = incomplete(SHAPE_OCTOPUS, 1, 17);
     ck_assert_uint_gt(phks_mesh_boundary_edge_count(cut), 0);
     same_signature(closed, NULL);
@@ -184,7 +170,7 @@ static void refused(const phks_mesh *m, const phks_spectrum *spec,
 
 START_TEST(argument_errors)
 {
-    phks_mesh *m = creature(SHAPE_PLIER, 0), *other = creature(SHAPE_HAND, 0);
+    phks_mesh *m = creature_mesh(SHAPE_PLIER, 0), *other = creature_mesh(SHAPE_HAND, 0);
     phks_spectrum *spec;
     ck_assert_int_eq(phks_spectrum_compute(m, NULL, &spec), PHKS_OK);
     uint32_t n = (uint32_t)phks_mesh_vertex_count(m);

@@ -5,7 +5,7 @@
  * one file, a writer killed mid-stream, concurrent queries, allocation
  * failures and bad arguments. Signatures are synthetic (random vectors
  * with valid options) except in one end-to-end case, so the suite is fast. */
-#include "testutil.h"
+#include "soup.h"
 #include "shapes.h"
 #include "db/db_cache.h"
 
@@ -483,16 +483,8 @@ START_TEST(creatures_end_to_end)
     phks_db *db;
     ck_assert_int_eq(phks_db_open(":memory:", PHKS_DB_CREATE, &db), PHKS_OK);
     for (unsigned i = 0; i < 4; i++) {
-        double angles[SHAPE_MAX_JOINTS];
-        shape_mesh s;
         unsigned kind = i < 2 ? SHAPE_HAND : SHAPE_PLIER;
-        shape_creature_pose(kind, i % 2 + 1, angles);
-        ck_assert_int_eq(shape_creature(kind, angles, 1, &s), 0);
-        phks_mesh *m;
-        ck_assert_int_eq(phks_mesh_create(s.xyz, s.vertex_count, s.triangles,
-                                          s.triangle_count, &m),
-                         PHKS_OK);
-        shape_mesh_free(&s);
+        phks_mesh *m = creature_mesh(kind, i % 2 + 1);
         ck_assert_int_eq(phks_signature_compute(m, &o, &sigs[i]), PHKS_OK);
         phks_mesh_free(m);
         snprintf(names[i], sizeof names[i], "%s %u", shape_creature_name(kind),

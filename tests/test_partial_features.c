@@ -111,15 +111,7 @@ END_TEST
 static phks_signature *complete(unsigned kind, unsigned pose,
                                 const phks_options *o)
 {
-    double angles[SHAPE_MAX_JOINTS];
-    shape_mesh s;
-    shape_creature_pose(kind, pose, angles);
-    ck_assert_int_eq(shape_creature(kind, angles, 1, &s), 0);
-    phks_mesh *m;
-    ck_assert_int_eq(phks_mesh_create(s.xyz, s.vertex_count, s.triangles,
-                                      s.triangle_count, &m),
-                     PHKS_OK);
-    shape_mesh_free(&s);
+    phks_mesh *m = creature_mesh(kind, pose);
     phks_signature *sig;
     ck_assert_int_eq(phks_signature_compute(m, o, &sig), PHKS_OK);
     phks_mesh_free(m);
