@@ -361,7 +361,7 @@ static void tally(const catalogue *c, size_t own, const phks_signature *q,
 
 /* The same creature bent into another pose: the distances along the
  * surface do not change, so nearly every verified pair is right and the
- * source ranks first among the 20 (measured: all five first, 68 of 73
+ * source ranks first among the 20 (measured: all five first, 66 of 73
  * pairs right). */
 START_TEST(bend_keeps_correspondences)
 {
@@ -426,11 +426,11 @@ static phks_mesh *cut_third(const shape_mesh *s)
  * along an axis). Measured, for the record of what the method does on
  * such coarse creatures (500 to 1,300 vertices): a cut of a third ranks
  * its source first for 1 of 5 creatures and a scan from four directions
- * for 0 of 20 (the stretched twins and other kinds come first), short of
+ * for 4 of 20 (the stretched twins and other kinds come first), short of
  * what the method is for; docs/retrieval.md has the benchmark's figures.
  * What holds: the verified pairs land within 0.1 sqrt(area) of the truth
  * (or its mirror image) far more often than chance, under 4% for a
- * random point (measured: 14 of 55 for the cuts, 45 of 177 for the
+ * random point (measured: 16 of 52 for the cuts, 54 of 224 for the
  * scans). */
 START_TEST(parts_verify_right_pairs)
 {

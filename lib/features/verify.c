@@ -98,7 +98,6 @@ struct phks__verifier {
     double *sum, *last; /* nb each: distances' running sums and steps   */
     double *weight_sum;  /* na x nb: the step weights' sum                */
     double *dist;     /* na x nb vector distances                         */
-    double *trust;    /* na x nb: the weight left in dist, 0..1           */
     double *ga, *gb;  /* a's features' and b's points' distances, square  */
     double *gb_scaled; /* gb times the scale being tried                  */
     proposal *p;
@@ -178,8 +177,7 @@ static void shift_times(const phks__verifier *c, double scale, double *out)
 }
 
 /* What of dist(i, j) no scale changes: each step's weight, how much of
- * both points' values there are their shapes', the weights' sum, and the
- * share of it left (trust). */
+ * both points' values there are their shapes', and the weights' sum. */
 static void step_weights(phks__verifier *c)
 {
     size_t L = c->length, steps = c->steps, nb = c->nb;
@@ -191,7 +189,6 @@ static void step_weights(phks__verifier *c)
                 w += sw[k * nb];
             }
             c->weight_sum[i * nb + j] = w;
-            c->trust[i * nb + j] = w / (double)steps;
         }
 }
 
@@ -235,7 +232,12 @@ static void distances(phks__verifier *c, const double *vb)
 }
 
 /* Each query feature's CANDIDATES nearest entry points (lower index
- * first on ties); the affinities of those kept only. */
+ * first on ties); the affinities of those kept only. The boundary
+ * weights have their say once, inside dist: a proposal's affinity was
+ * also multiplied by the share of weight left, which on a partial scan,
+ * where the heat of most points reaches the silhouette, silenced the
+ * geometry (docs/retrieval.md, "Every direction on the whole
+ * benchmark"). */
 static void propose(phks__verifier *c)
 {
     size_t nb = c->nb, per = nb < CANDIDATES ? nb : CANDIDATES;
@@ -254,7 +256,7 @@ static void propose(phks__verifier *c)
         }
         for (size_t m = 0; m < have; m++) {
             uint32_t j = mine[m].j;
-            double u = exp(-row[j] / c->sigma) * c->trust[i * nb + j];
+            double u = exp(-row[j] / c->sigma);
             mine[m] = (proposal){(uint32_t)i, j, u, sqrt(u)};
         }
         c->count += have;
@@ -536,7 +538,7 @@ static double best_affinity(phks__verifier *c, uint32_t *pair_of)
 /* The verifier's arrays, for allocate and phks__verifier_free. */
 #define OWNED(c)                                                            \
     {(c)->va, (c)->vb, (c)->wa, (c)->wb, (c)->vb_shift, (c)->step_weight,   \
-     (c)->sum, (c)->last, (c)->weight_sum, (c)->dist, (c)->trust, (c)->ga,  \
+     (c)->sum, (c)->last, (c)->weight_sum, (c)->dist, (c)->ga,              \
      (c)->gb, (c)->gb_scaled, (c)->p, (c)->pair, (c)->pair_ga,              \
      (c)->pair_gb, (c)->pair_e, (c)->matrix, (c)->x, (c)->y, (c)->order,    \
      (c)->set, (c)->trial}
@@ -568,7 +570,6 @@ static bool allocate(phks__verifier *c, size_t nb)
     c->last = phks__malloc_array(nb, sizeof *c->last);
     c->weight_sum = phks__malloc_array(na, nb * sizeof *c->weight_sum);
     c->dist = phks__malloc_array(na, nb * sizeof *c->dist);
-    c->trust = phks__malloc_array(na, nb * sizeof *c->trust);
     c->ga = phks__malloc_array(na, na * sizeof *c->ga);
     c->gb = phks__malloc_array(nb, nb * sizeof *c->gb);
     c->gb_scaled = phks__malloc_array(nb, nb * sizeof *c->gb_scaled);
