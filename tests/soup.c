@@ -197,10 +197,19 @@ void crop_z(soup *s, double zmin)
 
 phks_mesh *creature_mesh(unsigned kind, unsigned pose)
 {
+    return creature_mesh_moved(kind, pose, NULL, 1, NULL);
+}
+
+phks_mesh *creature_mesh_moved(unsigned kind, unsigned pose,
+                               const double *rotation, double scale,
+                               const double *shift)
+{
     double angles[SHAPE_MAX_JOINTS];
     shape_mesh s;
     shape_creature_pose(kind, pose, angles);
     ck_assert_int_eq(shape_creature(kind, angles, 1, &s), 0);
+    if (rotation)
+        ck_assert_int_eq(shape_transform(&s, rotation, scale, shift), 0);
     phks_mesh *m;
     ck_assert_int_eq(phks_mesh_create(s.xyz, s.vertex_count, s.triangles,
                                       s.triangle_count, &m),

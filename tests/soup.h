@@ -45,6 +45,12 @@ void add_torus(soup *s, size_t nu, size_t nv, double big, double small,
  * in pose `pose`, at resolution 1 (500 to 1,300 vertices). */
 phks_mesh *creature_mesh(unsigned kind, unsigned pose);
 
+/* The same, rotated (row-major 3 x 3; NULL: as made), scaled and then
+ * shifted by shift[3] as shape_transform does. */
+phks_mesh *creature_mesh_moved(unsigned kind, unsigned pose,
+                               const double *rotation, double scale,
+                               const double *shift);
+
 /* Keeps the triangles whose centroid has z >= zmin, and their vertices. */
 void crop_z(soup *s, double zmin);
 

@@ -4,6 +4,7 @@
  * threads, progress and cancellation. Small meshes
  * (resolution 1, 500-1300 vertices) keep it fast. */
 #include "testutil.h"
+#include "soup.h"
 #include "shapes.h"
 #include "partial.h"
 
@@ -11,25 +12,6 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-
-static phks_mesh *creature(unsigned kind, unsigned pose, const double *rotation,
-                           double scale)
-{
-    double angles[SHAPE_MAX_JOINTS];
-    shape_mesh s;
-    shape_creature_pose(kind, pose, angles);
-    ck_assert_int_eq(shape_creature(kind, angles, 1, &s), 0);
-    if (rotation) {
-        const double shift[3] = {3.5, -20, 7};
-        ck_assert_int_eq(shape_transform(&s, rotation, scale, shift), 0);
-    }
-    phks_mesh *m;
-    ck_assert_int_eq(phks_mesh_create(s.xyz, s.vertex_count, s.triangles,
-                                      s.triangle_count, &m),
-                     PHKS_OK);
-    shape_mesh_free(&s);
-    return m;
-}
 
 static phks_signature *signature(const phks_mesh *m, const phks_options *o)
 {
@@ -114,11 +96,12 @@ END_TEST
 START_TEST(invariant_to_rigid_motion_and_scale)
 {
     unsigned kind = (unsigned)_i;
-    phks_mesh *m = creature(kind, 1, NULL, 1);
+    phks_mesh *m = creature_mesh(kind, 1);
     phks_signature *a = signature(m, NULL);
     double rotation[9];
     shape_random_rotation(100 + kind, rotation);
-    phks_mesh *moved = creature(kind, 1, rotation, 37.5);
+    const double shift[3] = {3.5, -20, 7};
+    phks_mesh *moved = creature_mesh_moved(kind, 1, rotation, 37.5, shift);
     phks_signature *b = signature(moved, NULL);
     size_t n = phks_signature_feature_count(a), count;
     ck_assert_uint_eq(n, phks_signature_feature_count(b));
@@ -158,7 +141,7 @@ static double kind_separation(const phks_options *o)
     enum { K = SHAPE_KIND_COUNT };
     phks_signature *p1[K], *p2[K];
     for (unsigned k = 0; k < K; k++) {
-        phks_mesh *a = creature(k, 1, NULL, 1), *b = creature(k, 2, NULL, 1);
+        phks_mesh *a = creature_mesh(k, 1), *b = creature_mesh(k, 2);
         p1[k] = signature(a, o);
         p2[k] = signature(b, o);
         phks_mesh_free(a);
@@ -204,7 +187,7 @@ END_TEST
 
 START_TEST(repeatable_and_equal_through_the_spectrum)
 {
-    phks_mesh *m = creature(SHAPE_HAND, 3, NULL, 1);
+    phks_mesh *m = creature_mesh(SHAPE_HAND, 3);
     phks_signature *a = signature(m, NULL), *b = signature(m, NULL);
     size_t size_a = phks_signature_encoded_size(a);
     unsigned char blob_a[8192], blob_b[8192];
@@ -230,7 +213,7 @@ START_TEST(repeatable_and_equal_through_the_spectrum)
                      PHKS_ERROR_INVALID_ARGUMENT);
     ck_assert_ptr_null(d);
     /* ... and a spectrum of another mesh too. */
-    phks_mesh *other = creature(SHAPE_PLIER, 1, NULL, 1);
+    phks_mesh *other = creature_mesh(SHAPE_PLIER, 1);
     ck_assert_int_eq(phks_signature_from_spectrum(other, spec, NULL, &d),
                      PHKS_ERROR_INVALID_ARGUMENT);
     phks_mesh_free(other);
@@ -246,7 +229,7 @@ END_TEST
  * first, each plain vector's first entry (t = 5 tau) equal to that HKS. */
 START_TEST(features_are_the_persistent_maxima)
 {
-    phks_mesh *m = creature(SHAPE_OCTOPUS, 1, NULL, 1);
+    phks_mesh *m = creature_mesh(SHAPE_OCTOPUS, 1);
     phks_spectrum *spec;
     ck_assert_int_eq(phks_spectrum_compute(m, NULL, &spec), PHKS_OK);
     size_t n = phks_mesh_vertex_count(m);
@@ -292,7 +275,7 @@ END_TEST
  * vertices' HKS tie to rounding: on this hand, vertices 251 and 224.) */
 START_TEST(blas_threads_change_only_rounding)
 {
-    phks_mesh *m = creature(SHAPE_HAND, 2, NULL, 1);
+    phks_mesh *m = creature_mesh(SHAPE_HAND, 2);
     size_t n = phks_mesh_vertex_count(m);
     double *h[2] = {malloc(n * sizeof(double)), malloc(n * sizeof(double))};
     ck_assert(h[0] && h[1]);
@@ -353,7 +336,7 @@ static int record(void *user, phks_stage stage, double fraction)
 
 START_TEST(progress_reaches_every_stage_and_cancels)
 {
-    phks_mesh *m = creature(SHAPE_QUADRUPED, 1, NULL, 1);
+    phks_mesh *m = creature_mesh(SHAPE_QUADRUPED, 1);
     phks_options o;
     phks_options_init(&o);
     progress_log log = {{0}, -1, 0, 0};
