@@ -347,6 +347,82 @@ typedef struct phks_options {
  * PHKS_ERROR_INVALID_ARGUMENT if options is NULL. */
 PHKS_API phks_status phks_options_init(phks_options *options);
 
+/* ---- Option names (since 0.2.0)
+ * One table in the library names every field of phks_options that a
+ * caller sets, and every value of those that are enums, in the words of
+ * each kind of user, so that a binding parses and prints its users'
+ * spelling and a message names what they typed. Options are numbered
+ * 0, 1, ... in a fixed order that later versions only extend: the ones
+ * that shape a signature's numbers first (tau, cutoff, eigen_count,
+ * operator_kind, box, quadrature, feature_count, scale_count,
+ * feature_scale, boundary_margin, hks_scaling, matching, scales), then
+ * solver, threads, tolerance, simplify_above, simplify_target. Every
+ * function here is thread-safe and allocates nothing; returned strings are
+ * static. */
+typedef enum phks_spelling {
+    /* The field's name and the enumerator's suffix in lower case:
+     * "operator_kind", "random_walk". The library's own messages, the
+     * Python module's keywords and PostgreSQL's phks_options use it. */
+    PHKS_SPELLING_C = 0,
+    /* The phks tool's: the option after "--" and its value, words joined
+     * by '-': "operator", "random-walk", "hks-scaling". */
+    PHKS_SPELLING_CLI = 1
+} phks_spelling;
+
+/* Name of option `index` in spelling, or NULL past the last option or for
+ * a spelling this library does not know (so a loop from 0 to the first
+ * NULL visits them all). */
+PHKS_API const char *phks_option_name(uint32_t index, phks_spelling spelling);
+
+/* Sets *index to the option named `name` in spelling (exact match).
+ * Errors: PHKS_ERROR_INVALID_ARGUMENT (NULL, unknown spelling, no such
+ * option: the message names it). */
+PHKS_API phks_status phks_option_find(const char *name, phks_spelling spelling,
+                                      uint32_t *index);
+
+/* Name of `value` of option `index` in spelling when the option is an enum
+ * (operator_kind, box, solver, hks_scaling, quadrature, matching): for
+ * example "local-area" for hks_scaling 2 in PHKS_SPELLING_CLI. NULL when
+ * the option is not an enum, the value has no name or the spelling is
+ * unknown. An enum's values are 0, 1, ... up to the first NULL. */
+PHKS_API const char *phks_option_value_name(uint32_t index, int32_t value,
+                                            phks_spelling spelling);
+
+/* Sets option `index` of *options from `text` as its user typed it: an
+ * enum's value by its name in spelling (or its number), a count in
+ * decimal digits, a real as a finite C number, scales as numbers separated
+ * by commas (which also sets scale_count). The result is validated as
+ * every computation validates options; on any error *options is left as
+ * it was. Errors: PHKS_ERROR_INVALID_ARGUMENT (NULL, unknown spelling or
+ * index, text that is not a value of the option or out of its range: the
+ * message names the option in spelling and the text). */
+PHKS_API phks_status phks_option_set(phks_options *options, uint32_t index,
+                                     const char *text, phks_spelling spelling);
+
+/* Writes option `index` of *options as its user would type it in spelling
+ * (an enum's name, a number in the fewest digits that read back to the
+ * same double, scales separated by commas) into text, size bytes with the
+ * terminating NUL. Errors: PHKS_ERROR_INVALID_ARGUMENT (NULL, unknown
+ * spelling or index, an enum value with no name),
+ * PHKS_ERROR_BUFFER_TOO_SMALL (text then holds as much as fits). */
+PHKS_API phks_status phks_option_format(const phks_options *options,
+                                        uint32_t index, phks_spelling spelling,
+                                        char *text, size_t size);
+
+/* Whether signatures made with options a and b are comparable: every option
+ * that shapes a signature's numbers equal (not solver, threads, tolerance,
+ * callbacks nor the HKS-simp switch, which change how the numbers are
+ * computed, not what they mean). Returns PHKS_OK when they are, and
+ * PHKS_ERROR_INCOMPATIBLE when not, with the first option that differs and
+ * both values in spelling, "hks-scaling local-area against none", in
+ * detail (size bytes; cut to fit; may be NULL when size is 0) and in
+ * phks_last_error_message(). Errors: PHKS_ERROR_INVALID_ARGUMENT (NULL
+ * options, unknown spelling). */
+PHKS_API phks_status phks_options_compare(const phks_options *a,
+                                          const phks_options *b,
+                                          phks_spelling spelling, char *detail,
+                                          size_t size);
+
 /* =====================================================================
  * Meshes
  * =====================================================================

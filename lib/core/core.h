@@ -51,10 +51,11 @@ phks_status phks__options_resolve(const phks_options *user, phks_options *out);
 phks_status phks__progress(const phks_options *opt, phks_stage stage,
                           double fraction);
 
-/* The first field that shapes a signature's numbers (options.c lists
+/* The first field that shapes a signature's numbers (option_table.c lists
  * them) and differs between a and b, or NULL when none does; with
  * spectrum_only, only the fields a spectrum's eigenpairs depend on. When
- * detail is not NULL it receives "NAME A against B" (cut to size). */
+ * detail is not NULL it receives "NAME A against B" (cut to size), an
+ * enum's values by name: "hks_scaling local_area against none". */
 const char *phks__options_difference(const phks_options *a,
                                      const phks_options *b, bool spectrum_only,
                                      char *detail, size_t size);

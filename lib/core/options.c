@@ -5,7 +5,6 @@
 #include "core/core.h"
 
 #include <stddef.h>
-#include <stdio.h>
 
 #include <math.h>
 #include <string.h>
@@ -170,77 +169,4 @@ phks__span phks__span_part(phks__span s, double from, double to)
     phks__span part = {s.opt, s.stage, s.done + s.span * from,
                        s.span * (to - from)};
     return part;
-}
-
-/* ---- the options that shape a signature's numbers, written once
- *
- * Two signatures are comparable when every field here is equal; the
- * spectrum's fields are the subset its eigenpairs depend on. Not here:
- * the solver, the tolerance, threads, callbacks and the HKS-simp switch,
- * which change how the numbers are computed (or their last bits), not
- * what they mean, so that a large mesh stays comparable with small
- * ones. */
-
-typedef enum { FIELD_DOUBLE, FIELD_INT32, FIELD_UINT32 } field_type;
-
-static const struct {
-    const char *name;
-    size_t offset;
-    field_type type;
-    bool spectrum;
-} shaping[] = {
-    {"tau", offsetof(phks_options, tau), FIELD_DOUBLE, true},
-    {"cutoff", offsetof(phks_options, cutoff), FIELD_DOUBLE, true},
-    {"eigen_count", offsetof(phks_options, eigen_count), FIELD_UINT32, true},
-    {"operator_kind", offsetof(phks_options, operator_kind), FIELD_INT32, true},
-    {"box", offsetof(phks_options, box), FIELD_INT32, true},
-    {"quadrature", offsetof(phks_options, quadrature), FIELD_INT32, true},
-    {"feature_count", offsetof(phks_options, feature_count), FIELD_UINT32, false},
-    {"scale_count", offsetof(phks_options, scale_count), FIELD_UINT32, false},
-    {"feature_scale", offsetof(phks_options, feature_scale), FIELD_DOUBLE, false},
-    {"boundary_margin", offsetof(phks_options, boundary_margin), FIELD_DOUBLE, false},
-    {"hks_scaling", offsetof(phks_options, hks_scaling), FIELD_INT32, false},
-    {"matching", offsetof(phks_options, matching), FIELD_INT32, false},
-};
-
-static double field_value(const phks_options *o, size_t i)
-{
-    const char *p = (const char *)o + shaping[i].offset;
-    switch (shaping[i].type) {
-    case FIELD_DOUBLE: return *(const double *)(const void *)p;
-    case FIELD_INT32: return *(const int32_t *)(const void *)p;
-    case FIELD_UINT32:
-    default: return *(const uint32_t *)(const void *)p;
-    }
-}
-
-const char *phks__options_difference(const phks_options *a,
-                                     const phks_options *b, bool spectrum_only,
-                                     char *detail, size_t size)
-{
-    for (size_t i = 0; i < sizeof shaping / sizeof shaping[0]; i++) {
-        if (spectrum_only && !shaping[i].spectrum)
-            continue;
-        double x = field_value(a, i), y = field_value(b, i);
-        if (x != y) {
-            if (detail && size)
-                snprintf(detail, size, "%s %.17g against %.17g",
-                         shaping[i].name, x, y);
-            return shaping[i].name;
-        }
-    }
-    for (uint32_t s = 0; !spectrum_only && s < a->scale_count &&
-                         s < PHKS_MAX_SCALES; s++)
-        if (a->scales[s] != b->scales[s]) {
-            if (detail && size)
-                snprintf(detail, size, "scales[%u] %.17g against %.17g",
-                         (unsigned)s, a->scales[s], b->scales[s]);
-            return "scales";
-        }
-    return NULL;
-}
-
-bool phks__options_comparable(const phks_options *a, const phks_options *b)
-{
-    return phks__options_difference(a, b, false, NULL, 0) == NULL;
 }
