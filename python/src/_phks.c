@@ -27,8 +27,8 @@
 #include <string.h>
 
 #include "phks.h"
-/* tools/phks/cli_assimp.c, compiled in here too (python/meson.build). */
-#include "cli_assimp.h"
+/* The assimp adapter the tool also links (tools/assimp). */
+#include "assimp_reader.h"
 
 /* ---------------------------------------------------------------------
  * Errors and enumerations
@@ -766,7 +766,7 @@ static PyTypeObject MeshType = {
 
 static PyObject *py_has_assimp(PyObject *self, PyObject *unused)
 {
-    return PyBool_FromLong(cli_assimp_available());
+    return PyBool_FromLong(assimp_reader_available());
 }
 
 static PyObject *py_load(PyObject *self, PyObject *args)
@@ -777,12 +777,12 @@ static PyObject *py_load(PyObject *self, PyObject *args)
     phks_mesh *mesh = NULL;
     phks_status st;
     const char *p = PyBytes_AS_STRING(path);
-    if (cli_assimp_handles(p)) {
+    if (assimp_reader_handles(p)) {
         /* glTF, FBX, COLLADA, ...: through assimp, all meshes merged (the
-         * tool's code, tools/phks/cli_assimp.c). */
+         * adapter, tools/assimp/assimp_reader.c). */
         char err[1024];
         Py_BEGIN_ALLOW_THREADS
-        st = cli_assimp_load(p, NULL, &mesh, NULL, 0, err, sizeof err);
+        st = assimp_reader_load(p, NULL, &mesh, NULL, 0, err, sizeof err);
         Py_END_ALLOW_THREADS
         if (st != PHKS_OK) {
             char detail[1400];

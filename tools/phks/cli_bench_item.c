@@ -6,7 +6,7 @@
  * feature point of a version back to the source mesh.
  */
 #include "cli_bench.h"
-#include "cli_assimp.h"
+#include "assimp_reader.h"
 #include "partial.h"
 
 #include <errno.h>
@@ -254,10 +254,10 @@ static phks_status make_version(const phks_mesh *src, int kind, uint64_t seed,
 phks_status bench_load(const bench_model *model, phks_mesh **mesh,
                        const char **reason)
 {
-    if (!cli_assimp_handles(model->row->path))
+    if (!assimp_reader_handles(model->row->path))
         return phks_mesh_load(model->row->path, mesh);
     static _Thread_local char err[1024];
-    phks_status st = cli_assimp_load(model->row->path, NULL, mesh, NULL, 0,
+    phks_status st = assimp_reader_load(model->row->path, NULL, mesh, NULL, 0,
                                      err, sizeof err);
     if (st != PHKS_OK)
         *reason = err;

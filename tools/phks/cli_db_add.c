@@ -6,7 +6,7 @@
  * entry's is skipped unless --allow-duplicates.
  */
 #include "cli.h"
-#include "cli_assimp.h"
+#include "assimp_reader.h"
 
 #include <dirent.h>
 #include <errno.h>
@@ -218,7 +218,7 @@ static char *dup_string(const char *s)
 static int wanted_name(const char *name)
 {
     /* glTF, FBX, ...: the common ones of assimp, when the tool has it. */
-    if (cli_assimp_available() && cli_assimp_common(name))
+    if (assimp_reader_available() && assimp_reader_common(name))
         return 1;
     static const char *const ext[] = {".off", ".obj", ".ply", ".stl", ".sig"};
     size_t n = strlen(name);

@@ -5,11 +5,11 @@
  * option --object NAME. The cut keeps every line but the faces of other
  * objects, so the vertex numbering stays the file's, and goes through
  * phks_mesh_load_memory. Other formats than the library's own (glTF, FBX,
- * COLLADA, ...) go through assimp (cli_assimp.c), with the same merging,
+ * COLLADA, ...) go through assimp (tools/assimp/assimp_reader.c), with the same merging,
  * note and --object.
  */
 #include "cli.h"
-#include "cli_assimp.h"
+#include "assimp_reader.h"
 
 #include <ctype.h>
 #include <errno.h>
@@ -124,9 +124,9 @@ static size_t scan(const char *text, size_t size, const char *want,
 int cli_load_mesh(const char *path, phks_mesh **mesh)
 {
     *mesh = NULL;
-    if (cli_assimp_handles(path)) {
+    if (assimp_reader_handles(path)) {
         char note[640], err[1024];
-        phks_status st = cli_assimp_load(path, cli_object, mesh, note,
+        phks_status st = assimp_reader_load(path, cli_object, mesh, note,
                                          sizeof note, err, sizeof err);
         if (st != PHKS_OK) {
             cli_say(stderr, "phks: %s: %s\n", path, err);

@@ -8,7 +8,7 @@
  */
 #include "cli_render.h"
 #include "cli.h"
-#include "cli_assimp.h"
+#include "assimp_reader.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -27,8 +27,8 @@ static int draw_entry(cli_image *im, int x, int y, const char *path,
     char err[1024];
     if (cli_is_blob(path))
         return -1;
-    if (cli_assimp_handles(path)
-            ? cli_assimp_load(path, cli_object, &mesh, NULL, 0, err,
+    if (assimp_reader_handles(path)
+            ? assimp_reader_load(path, cli_object, &mesh, NULL, 0, err,
                               sizeof err) != PHKS_OK
             : phks_mesh_load(path, &mesh) != PHKS_OK)
         return -1;

@@ -1,10 +1,10 @@
 /*
- * cli_assimp.h - meshes from the formats of the Open Asset Import Library
+ * assimp_reader.h - meshes from the formats of the Open Asset Import Library
  * (assimp: glTF/GLB, FBX, COLLADA, 3DS, X3D, ...), read into arrays and
  * handed to phks_mesh_create. The library itself reads OFF, OBJ, PLY and
- * STL and stays free of assimp (and of C++); this file is compiled into the
- * `phks` tool and into the Python module (python/meson.build), and depends
- * on the public header only. Built with -DPHKS_WITH_ASSIMP when meson finds
+ * STL and stays free of assimp (and of C++); this adapter is linked into the
+ * `phks` tool and into the Python module (tools/assimp/meson.build), and
+ * depends on the public header only. Built with -DPHKS_WITH_ASSIMP when meson finds
  * assimp; without it, the formats are recognised by their extension and
  * refused with "built without assimp: cannot read .EXT".
  *
@@ -15,25 +15,25 @@
  * with each node's transform (and its parents') applied. Meshes of points
  * or lines only are skipped.
  */
-#ifndef PHKS_CLI_ASSIMP_H
-#define PHKS_CLI_ASSIMP_H
+#ifndef PHKS_ASSIMP_READER_H
+#define PHKS_ASSIMP_READER_H
 
 #include <stddef.h>
 
 #include "phks.h"
 
 /* 1 when the build has assimp. */
-int cli_assimp_available(void);
+int assimp_reader_available(void);
 /* 1 when path is for assimp: its extension is none of the library's own
  * (.off, .obj, .ply, .stl, each optionally followed by .gz) and names a
- * format that assimp reads (without assimp: cli_assimp_common, so that the
+ * format that assimp reads (without assimp: assimp_reader_common, so that the
  * refusal can say why). Other names stay with phks_mesh_load,
  * which recognises the content. */
-int cli_assimp_handles(const char *path);
+int assimp_reader_handles(const char *path);
 /* 1 when path ends in the extension of one of assimp's common formats
  * (.gltf, .glb, .fbx, .dae, .3ds, .x3d, .blend, ...: the list in
- * cli_assimp.c), whether or not the build has assimp. */
-int cli_assimp_common(const char *path);
+ * assimp_reader.c), whether or not the build has assimp. */
+int assimp_reader_common(const char *path);
 /* Reads the scene at path into *mesh: all its meshes merged into one shape,
  * or, with `object`, those of the nodes named so (and of their children)
  * and the meshes named so. Thread-safe. On success PHKS_OK; `note` (when
@@ -43,7 +43,7 @@ int cli_assimp_common(const char *path);
  * refusals, PHKS_ERROR_INVALID_ARGUMENT for an unknown `object`,
  * PHKS_ERROR_NO_TRIANGLES, or phks_mesh_create's) and the reason, without
  * the file's name, in err. */
-phks_status cli_assimp_load(const char *path, const char *object,
+phks_status assimp_reader_load(const char *path, const char *object,
                             phks_mesh **mesh, char *note, size_t note_size,
                             char *err, size_t err_size);
 

@@ -1,8 +1,8 @@
 /*
- * cli_assimp.c - meshes through assimp's C API for the `phks` tool and the
- * Python module (cli_assimp.h).
+ * assimp_reader.c - meshes through assimp's C API for the `phks` tool and the
+ * Python module (assimp_reader.h).
  */
-#include "cli_assimp.h"
+#include "assimp_reader.h"
 
 #include <errno.h>
 #include <stdint.h>
@@ -33,7 +33,7 @@ static const char *extension(const char *path)
     return dot && dot != name && dot[1] ? dot : NULL;
 }
 
-int cli_assimp_available(void)
+int assimp_reader_available(void)
 {
 #ifdef PHKS_WITH_ASSIMP
     return 1;
@@ -50,7 +50,7 @@ static const char *const common[] = {
     ".md5mesh", ".ms3d", ".nff", ".ogex", ".smd", ".ac", ".b3d", ".cob",
     ".dxf", ".irrmesh", ".lxo", ".xgl", ".zgl"};
 
-int cli_assimp_common(const char *path)
+int assimp_reader_common(const char *path)
 {
     const char *ext = extension(path);
     if (!ext)
@@ -61,7 +61,7 @@ int cli_assimp_common(const char *path)
     return 0;
 }
 
-int cli_assimp_handles(const char *path)
+int assimp_reader_handles(const char *path)
 {
     size_t n = strlen(path);
     if (has_suffix(path, n, ".gz"))
@@ -74,7 +74,7 @@ int cli_assimp_handles(const char *path)
     const char *ext = extension(path);
     return ext && aiIsExtensionSupported(ext) == AI_TRUE;
 #else
-    return cli_assimp_common(path);
+    return assimp_reader_common(path);
 #endif
 }
 
@@ -223,7 +223,7 @@ static void list_names(const struct aiNode *node, char *buf, size_t size,
         list_names(node->mChildren[i], buf, size, at, count);
 }
 
-phks_status cli_assimp_load(const char *path, const char *object,
+phks_status assimp_reader_load(const char *path, const char *object,
                             phks_mesh **mesh, char *note, size_t note_size,
                             char *err, size_t err_size)
 {
@@ -304,7 +304,7 @@ phks_status cli_assimp_load(const char *path, const char *object,
 
 #else
 
-phks_status cli_assimp_load(const char *path, const char *object,
+phks_status assimp_reader_load(const char *path, const char *object,
                             phks_mesh **mesh, char *note, size_t note_size,
                             char *err, size_t err_size)
 {
