@@ -1,5 +1,5 @@
 /*
- * test_quadrature.c - PHKS_QUADRATURE_TRIANGLES (lib/operator/quadrature.c,
+ * test_quadrature.c - PHKS_QUADRATURE_TRIANGLES (lib/geometry/quadrature.c,
  * docs/method.md section 13) against independent expectations:
  *
  *  - without a long triangle the option changes no bit: the quadrature is

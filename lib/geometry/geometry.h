@@ -1,7 +1,8 @@
 /*
  * geometry.h - the cleaned mesh and what is measured on it: the unit box,
- * vertex and local areas, distances to the boundary, and the spatial grid
- * the operator and HKS-simp find neighbours with.
+ * vertex and local areas, the quadrature points inside long triangles,
+ * distances to the boundary, and the spatial grid the operator and
+ * HKS-simp find neighbours with.
  */
 #ifndef PHKS_GEOMETRY_H
 #define PHKS_GEOMETRY_H
@@ -121,6 +122,32 @@ void phks__local_areas(const phks__surface *surface, size_t point,
  * every run, whatever the BLAS threads; finite input assumed. */
 void phks__sym3_eigen(const double matrix[9], double values[3],
                      double vectors[9]);
+/* ---- quadrature inside long triangles (quadrature.c) */
+/* PHKS_QUADRATURE_TRIANGLES' points (docs/method.md section 13): the
+ * mesh's vertices first (point v is vertex v), then points inside every
+ * triangle whose longest edge exceeds sqrt(4 tau) in the unit box, each
+ * weighted by its share of the surface. */
+typedef struct phks__quadrature {
+    size_t count;          /* points; count == vertex_count: no long
+                              triangle, and nothing is allocated        */
+    size_t vertex_count;
+    double *xyz;           /* 3 per point, input coordinates            */
+    double *area;          /* the weight a_q of every point (unit box)  */
+    uint32_t *corner;      /* 3 per point past the vertices: the mesh
+                              vertices it interpolates                  */
+    double *bary;          /* 3 per point past the vertices: its
+                              barycentric weights on them (Lambda)      */
+} phks__quadrature;
+
+phks_status phks__quadrature_build(const phks__unit_mesh *um,
+                                   const phks_options *opt,
+                                   phks__quadrature *q);
+void phks__quadrature_release(phks__quadrature *q);
+/* vertex[v] = sum_q Lambda_qv point[q]: what a mass on the points is on
+ * the vertices (the sums agree). */
+void phks__quadrature_lump(const phks__quadrature *q, const double *point,
+                           double *vertex);
+
 /* ---- spatial grid (grid.c) */
 typedef struct phks__grid {
     double origin[3];

@@ -50,32 +50,6 @@ void phks__operator_release(phks__operator_matrix *op);
 void phks__operator_apply(const phks__operator_matrix *op, const double *x,
                          double *y, size_t k, unsigned threads);
 
-/* ---- quadrature inside long triangles (quadrature.c) */
-/* PHKS_QUADRATURE_TRIANGLES' points (docs/method.md section 13): the
- * mesh's vertices first (point v is vertex v), then points inside every
- * triangle whose longest edge exceeds sqrt(4 tau) in the unit box, each
- * weighted by its share of the surface. */
-typedef struct phks__quadrature {
-    size_t count;          /* points; count == vertex_count: no long
-                              triangle, and nothing is allocated        */
-    size_t vertex_count;
-    double *xyz;           /* 3 per point, input coordinates            */
-    double *area;          /* the weight a_q of every point (unit box)  */
-    uint32_t *corner;      /* 3 per point past the vertices: the mesh
-                              vertices it interpolates                  */
-    double *bary;          /* 3 per point past the vertices: its
-                              barycentric weights on them (Lambda)      */
-} phks__quadrature;
-
-phks_status phks__quadrature_build(const phks__unit_mesh *um,
-                                   const phks_options *opt,
-                                   phks__quadrature *q);
-void phks__quadrature_release(phks__quadrature *q);
-/* vertex[v] = sum_q Lambda_qv point[q]: what a mass on the points is on
- * the vertices (the sums agree). */
-void phks__quadrature_lump(const phks__quadrature *q, const double *point,
-                           double *vertex);
-
 /* ---- B's null space (null_space.c) */
 /* The connected components of the graph of op's non-zero off-diagonal
  * entries (the kernel's, which may split a connected mesh): *component

@@ -30,7 +30,7 @@
  * corners it interpolates and its barycentric weights (Lambda of section
  * 13), so that masses can be handed back to the vertices.
  */
-#include "operator/operator.h"
+#include "geometry/geometry.h"
 
 #include <math.h>
 #include <string.h>
