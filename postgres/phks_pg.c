@@ -394,6 +394,24 @@ static void json_number(StringInfo out, const char *key, double v, int first)
     appendStringInfo(out, "%s\"%s\": %s", first ? "" : ", ", key, buf);
 }
 
+/* An enum option as its number under its field's name and, beside it
+ * under NAME_name, the value's name from the library's table (the C
+ * spelling, as SQL identifiers are written: "local_area"), or null for a
+ * value the table does not name. */
+static void json_enum(StringInfo out, const char *key, int32_t value)
+{
+    uint32_t index;
+    const char *name = NULL;
+    if (phks_option_find(key, PHKS_SPELLING_C, &index) == PHKS_OK)
+        name = phks_option_value_name(index, value, PHKS_SPELLING_C);
+    appendStringInfo(out, ", \"%s\": %d, \"%s_name\": ", key, (int)value,
+                     key);
+    if (name)
+        appendStringInfo(out, "\"%s\"", name);
+    else
+        appendStringInfoString(out, "null");
+}
+
 PG_FUNCTION_INFO_V1(phks_pg_options);
 Datum phks_pg_options(PG_FUNCTION_ARGS)
 {
@@ -422,12 +440,12 @@ Datum phks_pg_options(PG_FUNCTION_ARGS)
     }
     appendStringInfoChar(&out, ']');
     json_number(&out, "feature_scale", o.feature_scale, 0);
-    appendStringInfo(&out, ", \"operator_kind\": %d", (int)o.operator_kind);
-    appendStringInfo(&out, ", \"box\": %d", (int)o.box);
+    json_enum(&out, "operator_kind", o.operator_kind);
+    json_enum(&out, "box", o.box);
     json_number(&out, "boundary_margin", o.boundary_margin, 0);
-    appendStringInfo(&out, ", \"hks_scaling\": %d", (int)o.hks_scaling);
-    appendStringInfo(&out, ", \"quadrature\": %d", (int)o.quadrature);
-    appendStringInfo(&out, ", \"matching\": %d", (int)o.matching);
+    json_enum(&out, "hks_scaling", o.hks_scaling);
+    json_enum(&out, "quadrature", o.quadrature);
+    json_enum(&out, "matching", o.matching);
     appendStringInfoChar(&out, '}');
     /* json's representation is its text. */
     PG_RETURN_TEXT_P(cstring_to_text_with_len(out.data, out.len));

@@ -307,6 +307,9 @@ names = {"operator_kind": ("operator", ["literal", "random-walk"]),
          "matching": ("matching", ["nearest", "verified"])}
 check(all(names[k][1][opts[k]] == tool_opts[names[k][0]] for k in names),
       "phks_options enumerations: %s" % opts)
+check(all(opts[k + "_name"] == tool_opts[names[k][0]].replace("-", "_")
+          for k in names),
+      "phks_options names the enumerations in SQL's words: %s" % opts)
 
 # Signatures computed in the server equal the tool's, byte for byte.
 for m, s in list(zip(meshes, sigs))[:3] + [(meshes[-1], sigs[-1])]:
