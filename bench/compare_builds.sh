@@ -19,6 +19,10 @@
 set -eu
 [ $# -ge 2 ] || { echo "usage: $0 OLD_PHKS NEW_PHKS [MESH...]" >&2; exit 2; }
 old=$(realpath "$1") new=$(realpath "$2")
+# The tool of build `old` or `new`.
+phks_of() {
+    if [ "$1" = old ]; then echo "$old"; else echo "$new"; fi
+}
 shift 2
 if [ $# -eq 0 ]; then
     d=$(dirname "$0")/../../shared/data/meshes
@@ -52,7 +56,7 @@ for mesh in "$@"; do
     for opts in "" "--operator literal --boundary-margin 0 --hks-scaling none" \
                 "--threads 1"; do
         for build in old new; do
-            eval "phks=\$$build"
+            phks=$(phks_of "$build")
             # shellcheck disable=SC2086  # the option set splits into words
             "$phks" $opts signature "$mesh" -o "$tmp/$build/s.sig" \
                 >/dev/null 2>&1 || : >"$tmp/$build/s.sig"
@@ -75,12 +79,14 @@ done
 for build in old new; do
     (
         cd "$tmp/$build"
-        eval "phks=\$$build"
+        phks=$(phks_of "$build")
         : >match.json
         : >query.json
         for a in $(seq "$n"); do
             for b in $(seq "$n"); do
-                [ -s "$a.sig" ] && [ -s "$b.sig" ] || continue
+                if [ ! -s "$a.sig" ] || [ ! -s "$b.sig" ]; then
+                    continue
+                fi
                 "$phks" match "$a.sig" "$b.sig" --json >>match.json 2>&1 ||
                     echo "match $a $b failed" >>match.json
             done
