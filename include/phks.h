@@ -374,6 +374,21 @@ typedef enum phks_spelling {
  * NULL visits them all). */
 PHKS_API const char *phks_option_name(uint32_t index, phks_spelling spelling);
 
+/* What an option's value is: what phks_option_set reads and what a
+ * binding takes from its users. */
+typedef enum phks_option_type {
+    PHKS_OPTION_REAL = 0,  /* a finite double (tau, boundary_margin, ...)  */
+    PHKS_OPTION_COUNT = 1, /* a uint32_t (eigen_count, threads, ...)       */
+    PHKS_OPTION_ENUM = 2,  /* an int32_t with named values (hks_scaling)   */
+    PHKS_OPTION_REALS = 3  /* scales: 1..PHKS_MAX_SCALES doubles, and
+                              scale_count with them                        */
+} phks_option_type;
+
+/* The type of option `index` into *type. Errors:
+ * PHKS_ERROR_INVALID_ARGUMENT (type NULL, index past the last option). */
+PHKS_API phks_status phks_option_type_of(uint32_t index,
+                                         phks_option_type *type);
+
 /* Sets *index to the option named `name` in spelling (exact match).
  * Errors: PHKS_ERROR_INVALID_ARGUMENT (NULL, unknown spelling, no such
  * option: the message names it). */

@@ -144,6 +144,40 @@ START_TEST(every_option_reads_back_what_it_writes)
 }
 END_TEST
 
+START_TEST(types_are_what_the_fields_hold)
+{
+    const struct {
+        const char *name;
+        phks_option_type type;
+    } expect[] = {
+        {"tau", PHKS_OPTION_REAL},          {"boundary_margin", PHKS_OPTION_REAL},
+        {"eigen_count", PHKS_OPTION_COUNT}, {"threads", PHKS_OPTION_COUNT},
+        {"operator_kind", PHKS_OPTION_ENUM}, {"solver", PHKS_OPTION_ENUM},
+        {"scales", PHKS_OPTION_REALS},
+    };
+    for (size_t i = 0; i < sizeof expect / sizeof expect[0]; i++) {
+        phks_option_type type;
+        ck_assert_int_eq(phks_option_type_of(index_of(expect[i].name,
+                                                      PHKS_SPELLING_C),
+                                             &type),
+                         PHKS_OK);
+        ck_assert_int_eq(type, expect[i].type);
+    }
+    /* Every enum names its value 0, and nothing else does. */
+    for (uint32_t i = 0; phks_option_name(i, PHKS_SPELLING_C); i++) {
+        phks_option_type type;
+        phks_option_type_of(i, &type);
+        ck_assert_int_eq(type == PHKS_OPTION_ENUM,
+                         phks_option_value_name(i, 0, PHKS_SPELLING_C) != NULL);
+    }
+    phks_option_type type;
+    ck_assert_int_eq(phks_option_type_of(99, &type),
+                     PHKS_ERROR_INVALID_ARGUMENT);
+    ck_assert_int_eq(phks_option_type_of(0, NULL),
+                     PHKS_ERROR_INVALID_ARGUMENT);
+}
+END_TEST
+
 START_TEST(value_names_by_value)
 {
     const uint32_t scaling = index_of("hks_scaling", PHKS_SPELLING_C);
@@ -284,6 +318,7 @@ int main(void)
     tcase_add_test(c, tool_words_set_the_fields_the_manual_says);
     tcase_add_test(c, python_words_are_the_fields_names);
     tcase_add_test(c, every_option_reads_back_what_it_writes);
+    tcase_add_test(c, types_are_what_the_fields_hold);
     tcase_add_test(c, value_names_by_value);
     tcase_add_test(c, bad_text_is_refused_and_changes_nothing);
     tcase_add_test(c, format_says_when_the_buffer_is_short);

@@ -101,6 +101,22 @@ const char *phks_option_name(uint32_t index, phks_spelling spelling)
     return row ? row->name[spelling] : NULL;
 }
 
+phks_status phks_option_type_of(uint32_t index, phks_option_type *type)
+{
+    if (!type || index >= ROW_COUNT)
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
+                         "phks_option_type_of: type is NULL or option %u "
+                         "unknown", (unsigned)index);
+    switch (rows[index].type) {
+    case FIELD_DOUBLE: *type = PHKS_OPTION_REAL; break;
+    case FIELD_UINT32: *type = PHKS_OPTION_COUNT; break;
+    case FIELD_INT32: *type = PHKS_OPTION_ENUM; break;
+    case FIELD_SCALES:
+    default: *type = PHKS_OPTION_REALS; break;
+    }
+    return PHKS_OK;
+}
+
 phks_status phks_option_find(const char *name, phks_spelling spelling,
                              uint32_t *index)
 {
