@@ -44,6 +44,38 @@ static phks_db *db_open_handle(DatabaseObject *self)
     return self->db;
 }
 
+/* The handle and the entry id arg names, or NULL with the exception. */
+static phks_db *db_and_id(DatabaseObject *self, PyObject *arg, int64_t *id)
+{
+    long long v = PyLong_AsLongLong(arg);
+    if (v == -1 && PyErr_Occurred())
+        return NULL;
+    *id = (int64_t)v;
+    return db_open_handle(self);
+}
+
+/* A name or label the library gives, as str: they need not be UTF-8. */
+static PyObject *text_of(const char *s)
+{
+    return PyUnicode_DecodeUTF8(s, (Py_ssize_t)strlen(s), "replace");
+}
+
+/* A Hit or an Entry of the four fields (references stolen, also on
+ * failure); NULL when a field is (its exception is set). */
+static PyObject *record_of(PyTypeObject *type, PyObject *fields[4])
+{
+    PyObject *record = NULL;
+    if (fields[0] && fields[1] && fields[2] && fields[3])
+        record = PyStructSequence_New(type);
+    for (Py_ssize_t i = 0; i < 4; i++) {
+        if (record)
+            PyStructSequence_SET_ITEM(record, i, fields[i]);
+        else
+            Py_XDECREF(fields[i]);
+    }
+    return record;
+}
+
 static int Database_init(DatabaseObject *self, PyObject *args,
                          PyObject *kwargs)
 {
@@ -291,26 +323,14 @@ static PyObject *Database_query(DatabaseObject *self, PyObject *args,
     }
     PyObject *list = PyList_New((Py_ssize_t)count);
     for (size_t i = 0; list && i < count; i++) {
-        PyObject *hit = PyStructSequence_New(&HitType);
-        PyObject *id = PyLong_FromLongLong(hits[i].id);
-        PyObject *name = PyUnicode_DecodeUTF8(
-            hits[i].name, (Py_ssize_t)strlen(hits[i].name), "replace");
-        PyObject *label = PyUnicode_DecodeUTF8(
-            hits[i].label, (Py_ssize_t)strlen(hits[i].label), "replace");
-        PyObject *score = PyFloat_FromDouble(hits[i].score);
-        if (!hit || !id || !name || !label || !score) {
-            Py_XDECREF(hit);
-            Py_XDECREF(id);
-            Py_XDECREF(name);
-            Py_XDECREF(label);
-            Py_XDECREF(score);
+        PyObject *fields[4] = {PyLong_FromLongLong(hits[i].id),
+                               text_of(hits[i].name), text_of(hits[i].label),
+                               PyFloat_FromDouble(hits[i].score)};
+        PyObject *hit = record_of(&HitType, fields);
+        if (!hit) {
             Py_CLEAR(list);
             break;
         }
-        PyStructSequence_SET_ITEM(hit, 0, id);
-        PyStructSequence_SET_ITEM(hit, 1, name);
-        PyStructSequence_SET_ITEM(hit, 2, label);
-        PyStructSequence_SET_ITEM(hit, 3, score);
         PyList_SET_ITEM(list, (Py_ssize_t)i, hit);
     }
     PyMem_Free(hits);
@@ -351,10 +371,8 @@ static PyObject *Database_list(DatabaseObject *self, PyObject *unused)
 
 static PyObject *Database_get(DatabaseObject *self, PyObject *arg)
 {
-    long long id = PyLong_AsLongLong(arg);
-    if (id == -1 && PyErr_Occurred())
-        return NULL;
-    phks_db *db = db_open_handle(self);
+    int64_t id;
+    phks_db *db = db_and_id(self, arg, &id);
     if (!db)
         return NULL;
     /* Names are not limited in length: grow the buffers until they fit. */
@@ -364,61 +382,38 @@ static PyObject *Database_get(DatabaseObject *self, PyObject *arg)
         phks_signature *sig = NULL;
         phks_status st = PHKS_ERROR_OUT_OF_MEMORY;
         if (name && label)
-            st = phks_db_get(db, (int64_t)id, &sig, name, capacity, label,
+            st = phks_db_get(db, id, &sig, name, capacity, label,
                              capacity);
-        if (st == PHKS_ERROR_BUFFER_TOO_SMALL && capacity < ((size_t)1 << 30)) {
+        if (st == PHKS_OK) {
+            PyObject *fields[4] = {PyLong_FromLongLong(id), text_of(name),
+                                   text_of(label),
+                                   /* frees sig on failure */
+                                   signature_wrap(sig, NULL)};
             PyMem_Free(name);
             PyMem_Free(label);
-            capacity *= 4;
-            continue;
+            return record_of(&EntryType, fields);
         }
-        if (!name || !label) {
-            PyMem_Free(name);
-            PyMem_Free(label);
-            return PyErr_NoMemory();
-        }
-        if (st != PHKS_OK) {
-            PyMem_Free(name);
-            PyMem_Free(label);
-            return raise_status(st);
-        }
-        PyObject *entry = PyStructSequence_New(&EntryType);
-        PyObject *id_obj = PyLong_FromLongLong(id);
-        PyObject *name_obj = PyUnicode_DecodeUTF8(name, (Py_ssize_t)strlen(name),
-                                                  "replace");
-        PyObject *label_obj = PyUnicode_DecodeUTF8(
-            label, (Py_ssize_t)strlen(label), "replace");
-        PyObject *sig_obj = signature_wrap(sig, NULL); /* frees on failure */
+        int no_memory = !name || !label;
         PyMem_Free(name);
         PyMem_Free(label);
-        if (!entry || !id_obj || !name_obj || !label_obj || !sig_obj) {
-            Py_XDECREF(entry);
-            Py_XDECREF(id_obj);
-            Py_XDECREF(name_obj);
-            Py_XDECREF(label_obj);
-            Py_XDECREF(sig_obj);
-            return NULL;
-        }
-        PyStructSequence_SET_ITEM(entry, 0, id_obj);
-        PyStructSequence_SET_ITEM(entry, 1, name_obj);
-        PyStructSequence_SET_ITEM(entry, 2, label_obj);
-        PyStructSequence_SET_ITEM(entry, 3, sig_obj);
-        return entry;
+        if (no_memory)
+            return PyErr_NoMemory();
+        if (st != PHKS_ERROR_BUFFER_TOO_SMALL || capacity >= ((size_t)1 << 30))
+            return raise_status(st);
+        capacity *= 4;
     }
 }
 
 static PyObject *Database_remove(DatabaseObject *self, PyObject *arg)
 {
-    long long id = PyLong_AsLongLong(arg);
-    if (id == -1 && PyErr_Occurred())
-        return NULL;
-    phks_db *db = db_open_handle(self);
+    int64_t id;
+    phks_db *db = db_and_id(self, arg, &id);
     if (!db)
         return NULL;
     phks_status st;
     self->busy++;
     Py_BEGIN_ALLOW_THREADS
-    st = phks_db_remove(db, (int64_t)id);
+    st = phks_db_remove(db, id);
     Py_END_ALLOW_THREADS
     self->busy--;
     if (st != PHKS_OK)
