@@ -22,6 +22,8 @@ static void Spectrum_dealloc(SpectrumObject *self)
     Py_TYPE(self)->tp_free((PyObject *)self);
 }
 
+/* The arguments and result of this file's two long calls (run_long_call):
+ * phks.spectrum's and Spectrum.signature's. */
 typedef struct spectrum_args {
     const phks_mesh *mesh;
     const phks_spectrum *spectrum; /* Spectrum.signature's */
