@@ -91,6 +91,23 @@ def test_batch_is_all_or_nothing(shapes):
         assert len(db) == 1
 
 
+def test_mismatch_names_both_values(shapes):
+    # The option and both values as a Python user writes them, never the
+    # enums' numbers ("hks_scaling 0 against 2").
+    mesh = phks.Mesh(*creature(3, seed=0))
+    unscaled = phks.signature(mesh, hks_scaling="none")
+    with phks.Database(":memory:") as db:
+        db.add("s0", shapes["s0"])
+        for call in (lambda: db.add("unscaled", unscaled),
+                     lambda: db.add_batch([("unscaled", unscaled)]),
+                     lambda: db.query(unscaled)):
+            with pytest.raises(phks.Error) as e:
+                call()
+            assert e.value.status == phks.Status.INCOMPATIBLE
+            assert "hks_scaling none against local_area" in str(e.value)
+        assert len(db) == 1
+
+
 def test_long_names_come_back_whole(shapes):
     name = "n" * 1000
     with phks.Database(":memory:") as db:

@@ -266,6 +266,17 @@ def test_incompatible_signatures(creature_mesh, creature_signature):
         phks.score(creature_signature, "x")
 
 
+def test_mismatch_names_both_values(creature_mesh, creature_signature):
+    # The option and both values as a Python user writes them, never the
+    # enums' numbers ("hks_scaling 2 against 0").
+    unscaled = phks.signature(creature_mesh, hks_scaling="none")
+    for compare in (phks.score, phks.score_nearest, phks.match):
+        with pytest.raises(phks.Error) as e:
+            compare(creature_signature, unscaled)
+        assert e.value.status == phks.Status.INCOMPATIBLE
+        assert "hks_scaling local_area against none" in str(e.value)
+
+
 def test_threads_compute_the_same_signature(creature_mesh,
                                             creature_signature):
     out = [None] * 3
