@@ -11,37 +11,17 @@
 
 #include <string.h>
 
-/* How a Python value is taken for an option. */
-typedef enum option_kind {
-    OPTION_ENUM,   /* a name from the table, or an int          */
-    OPTION_COUNT,  /* an int, never a float                     */
-    OPTION_REAL,   /* a float or an int                         */
-    OPTION_SCALES  /* a sequence of reals; sets scale_count too */
-} option_kind;
+/* The type of a known option (index from phks_option_find or below
+ * phks_option_name's first NULL, so the call cannot fail). */
+static phks_option_type type_of(uint32_t index)
+{
+    phks_option_type type = PHKS_OPTION_REAL;
+    phks_option_type_of(index, &type);
+    return type;
+}
 
 /* Enough for PHKS_MAX_SCALES reals of 17 digits, signs and exponents. */
 #define OPTION_TEXT_MAX (PHKS_MAX_SCALES * 32)
-
-/* The table names an enum's values. A count and a real differ in what
- * phks_option_set reads (phks.h): a count is decimal digits only, a real
- * any C number, so the default value written with a leading '+' is taken
- * as a real and refused as a count. scales is Python's only sequence. */
-static option_kind kind_of(uint32_t index)
-{
-    if (phks_option_value_name(index, 0, PHKS_SPELLING_C))
-        return OPTION_ENUM;
-    if (strcmp(phks_option_name(index, PHKS_SPELLING_C), "scales") == 0)
-        return OPTION_SCALES;
-    phks_options probe;
-    phks_options_init(&probe);
-    char text[64] = "+";
-    if (phks_option_format(&probe, index, PHKS_SPELLING_C, text + 1,
-                           sizeof text - 1) != PHKS_OK)
-        return OPTION_REAL;
-    return phks_option_set(&probe, index, text, PHKS_SPELLING_C) == PHKS_OK
-               ? OPTION_REAL
-               : OPTION_COUNT;
-}
 
 /* ---------------------------------------------------------------------
  * Python values to the table's text
@@ -157,17 +137,17 @@ static int option_text(PyObject *value, uint32_t index, const char *name,
                        char *text, size_t size)
 {
     uint32_t count;
-    switch (kind_of(index)) {
-    case OPTION_ENUM:
+    switch (type_of(index)) {
+    case PHKS_OPTION_ENUM:
         return enum_text(value, index, name, text, size);
-    case OPTION_COUNT:
+    case PHKS_OPTION_COUNT:
         if (parse_u32(value, name, &count) < 0)
             return -1;
         PyOS_snprintf(text, size, "%lu", (unsigned long)count);
         return 0;
-    case OPTION_SCALES:
+    case PHKS_OPTION_REALS:
         return scales_text(value, text, size);
-    case OPTION_REAL:
+    case PHKS_OPTION_REAL:
     default:
         return real_text(value, text, size);
     }
@@ -288,14 +268,14 @@ static PyObject *option_value(const phks_options *o, uint32_t index)
         phks_option_format(o, index, PHKS_SPELLING_C, text, sizeof text);
     if (st != PHKS_OK)
         return raise_status(st);
-    switch (kind_of(index)) {
-    case OPTION_ENUM:
+    switch (type_of(index)) {
+    case PHKS_OPTION_ENUM:
         return PyUnicode_FromString(text);
-    case OPTION_COUNT:
+    case PHKS_OPTION_COUNT:
         return PyLong_FromString(text, NULL, 10);
-    case OPTION_SCALES:
+    case PHKS_OPTION_REALS:
         return scales_value(text);
-    case OPTION_REAL:
+    case PHKS_OPTION_REAL:
     default: {
         double x = PyOS_string_to_double(text, NULL, NULL);
         return x == -1 && PyErr_Occurred() ? NULL : PyFloat_FromDouble(x);
