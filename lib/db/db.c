@@ -12,11 +12,7 @@
  * compute. A busy timeout makes a process wait for another's write to
  * finish instead of failing.
  *
- * Locking: `lock` serialises everything that touches the connection (one
- * SQLite connection cannot hold two transactions) and guards the options
- * and the cache's state; `cache_lock` lets many queries scan the cache at
- * once while a write or a reload changes it. Order: lock, then
- * cache_lock; a scan holds cache_lock alone.
+ * Locking: see struct phks_db in db.h.
  *
  * Cache refresh: PRAGMA data_version changes when another connection (this
  * process or another) commits. Each query compares it with the value read
@@ -28,11 +24,9 @@
  * laid out by db_pack.c): a reload reads it, and every write updates it
  * in its own transaction; see "the packed chunks" below.
  */
-#include "db/db_cache.h"
+#include "db/db.h"
 
 #include <limits.h>
-#include <pthread.h>
-#include <sqlite3.h>
 #include <stdatomic.h>
 #include <stdio.h>
 #include <string.h>
@@ -43,23 +37,6 @@
 /* A chunk of the packs table closes at this many bytes: an add rewrites
  * at most one chunk below it, a removal one chunk. */
 #define PACK_CHUNK_BYTES (512 * 1024)
-
-struct phks_db {
-    sqlite3 *conn;
-    char *path;          /* as given, for messages */
-    bool readonly;
-    int format;          /* the file's user_version: 1 (read-only) or 2 */
-    bool use_pack;       /* format 2 and a file: keep the packs table    */
-    pthread_mutex_t lock;
-    pthread_rwlock_t cache_lock;
-    bool lock_ready, cache_lock_ready;
-    sqlite3_stmt *version; /* PRAGMA data_version */
-    bool has_options;    /* the options are set once and never change */
-    phks_options options;
-    bool cache_loaded;
-    int64_t cache_version;
-    phks__db_cache cache;
-};
 
 /* ---- SQLite errors */
 

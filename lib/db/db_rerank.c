@@ -11,7 +11,7 @@
  * allocated off this thread: the allocator is called in an order that
  * does not depend on the threads' timing.
  */
-#include "db/db_cache.h"
+#include "db/db.h"
 
 #include <stdlib.h>
 

@@ -15,7 +15,7 @@
 #if defined(__linux__) && !defined(_DEFAULT_SOURCE)
 #define _DEFAULT_SOURCE /* madvise's MADV_HUGEPAGE */
 #endif
-#include "db/db_cache.h"
+#include "db/db.h"
 #include "features/nearest_kernel.h"
 
 #include <math.h>

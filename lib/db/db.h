@@ -1,13 +1,18 @@
 /*
- * db_cache.h - the packed copy of a database's entries (db_scan.c) that
- * db.c keeps beside the SQLite file. Private to the database layer.
+ * db.h - the database layer's own declarations: the handle, the packed
+ * copy of its entries that queries scan (db_scan.c), the chunks that
+ * copy is kept in inside the file (db_pack.c) and the verified stage
+ * (db_rerank.c). Private to the layer (and its tests).
  */
-#ifndef PHKS_DB_CACHE_H
-#define PHKS_DB_CACHE_H
+#ifndef PHKS_DB_H
+#define PHKS_DB_H
 
 #include "features/features.h"
 
-/* ---- shape databases (db.c, db_scan.c) */
+#include <pthread.h>
+#include <sqlite3.h>
+
+/* ---- the packed copy (db_scan.c) */
 /* The packed copy of a database's entries that queries scan. Entries stay
  * in ascending id order. Entry e's feature vectors form one block at
  * vectors + vector_at[e]: `length` rows (one per scale) of
@@ -49,6 +54,29 @@ void phks__db_cache_remove(phks__db_cache *cache, int64_t id);
 phks_status phks__db_cache_query(const phks__db_cache *cache,
                                 const phks_signature *query, size_t k,
                                 phks_hit *hits, size_t *count);
+
+/* ---- the handle (db.c) */
+/* Locking: `lock` serialises everything that touches the connection (one
+ * SQLite connection cannot hold two transactions) and guards the options
+ * and the cache's state; `cache_lock` lets many queries scan the cache at
+ * once while a write or a reload changes it. Order: lock, then
+ * cache_lock; a scan holds cache_lock alone. */
+struct phks_db {
+    sqlite3 *conn;
+    char *path;          /* as given, for messages */
+    bool readonly;
+    int format;          /* the file's user_version: 1 (read-only) or 2 */
+    bool use_pack;       /* format 2 and a file: keep the packs table    */
+    pthread_mutex_t lock;
+    pthread_rwlock_t cache_lock;
+    bool lock_ready, cache_lock_ready;
+    sqlite3_stmt *version; /* PRAGMA data_version */
+    bool has_options;    /* the options are set once and never change */
+    phks_options options;
+    bool cache_loaded;
+    int64_t cache_version;
+    phks__db_cache cache;
+};
 
 /* ---- the verified stage (db_rerank.c) */
 /* Entries the packed scan hands to the verified score: re-ranking 100
@@ -93,4 +121,4 @@ phks_status phks__db_pack_decode(phks__db_cache *cache, int64_t start,
  * process started, read the packed chunks, and how many decoded the rows. */
 void phks__db_load_counts(unsigned long *from_pack, unsigned long *from_rows);
 
-#endif /* PHKS_DB_CACHE_H */
+#endif /* PHKS_DB_H */
