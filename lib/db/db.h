@@ -153,6 +153,12 @@ void phks__db_drop_cache(phks_db *db);
  * started, read the packed chunks, and how many decoded the rows. */
 void phks__db_load_counts(unsigned long *from_pack, unsigned long *from_rows);
 
+/* ---- reads (db_read.c) */
+/* Entry id's signature, as phks_db_get reads it (takes lock):
+ * PHKS_ERROR_INVALID_ARGUMENT, *signature NULL, when there is none. */
+phks_status phks__db_get_signature(phks_db *db, int64_t id,
+                                   phks_signature **signature);
+
 /* ---- the verified stage (db_rerank.c) */
 /* Entries the packed scan hands to the verified score: re-ranking 100
  * instead changes no answer of the benchmark (docs/retrieval.md), and

@@ -6,7 +6,8 @@
  * snapshot), so that they see every commit at once. A query scans the
  * packed copy (db_scan.c), refreshed first when the file changed
  * (db_load.c); with verified matching the scan only shortlists, and
- * db_rerank.c, reading the shortlisted entries back, decides.
+ * db_rerank.c, reading the shortlisted entries back through
+ * phks__db_get_signature, decides.
  */
 #include "db/db.h"
 
@@ -213,6 +214,14 @@ phks_status phks_db_get(phks_db *db, int64_t id, phks_signature **signature,
     text_out n = {name, name_capacity, NULL, 0};
     text_out l = {label, label_capacity, NULL, 0};
     return get_entry(db, id, signature, &n, &l);
+}
+
+phks_status phks__db_get_signature(phks_db *db, int64_t id,
+                                   phks_signature **signature)
+{
+    text_out name = {NULL, 0, NULL, 0}, label = name;
+    *signature = NULL;
+    return get_entry(db, id, signature, &name, &label);
 }
 
 /* ---- queries */
