@@ -7,7 +7,7 @@
  * with valid options) except in one end-to-end case, so the suite is fast. */
 #include "soup.h"
 #include "shapes.h"
-#include "db/db_cache.h"
+#include "db/db.h"
 
 #include <dirent.h>
 #include <fcntl.h>

@@ -8,7 +8,7 @@
 #include "shapes.h"
 #include "soup.h"
 #include "testutil.h"
-#include "db/db_cache.h"
+#include "db/db.h"
 
 #include <math.h>
 #include <stdlib.h>

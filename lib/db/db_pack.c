@@ -12,7 +12,7 @@
  * swapped words. It guards against damage, not against a writer that
  * means harm.
  */
-#include "db/db_cache.h"
+#include "db/db.h"
 
 #include <string.h>
 

@@ -11,7 +11,7 @@
  * allocated off this thread: the allocator is called in an order that
  * does not depend on the threads' timing.
  */
-#include "db/db_cache.h"
+#include "db/db.h"
 
 #include <stdlib.h>
 
@@ -53,8 +53,7 @@ static phks_status read_entries(phks_db *db, const phks_hit *shortlist,
 {
     *points = 0;
     for (size_t h = 0; h < m; h++) {
-        phks_status st = phks_db_get(db, shortlist[h].id, &entry[h], NULL, 0,
-                                     NULL, 0);
+        phks_status st = phks__db_get_signature(db, shortlist[h].id, &entry[h]);
         if (st == PHKS_ERROR_INVALID_ARGUMENT)
             entry[h] = NULL;
         else if (st != PHKS_OK)

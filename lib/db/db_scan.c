@@ -15,7 +15,7 @@
 #if defined(__linux__) && !defined(_DEFAULT_SOURCE)
 #define _DEFAULT_SOURCE /* madvise's MADV_HUGEPAGE */
 #endif
-#include "db/db_cache.h"
+#include "db/db.h"
 #include "features/nearest_kernel.h"
 
 #include <math.h>
@@ -229,7 +229,7 @@ static void compact(phks__db_cache *c)
     c->text_used = text;
 }
 
-void phks__db_cache_remove(phks__db_cache *c, int64_t id)
+size_t phks__db_cache_find(const phks__db_cache *c, int64_t id)
 {
     size_t lo = 0, hi = c->count;
     while (lo < hi) {
@@ -239,9 +239,15 @@ void phks__db_cache_remove(phks__db_cache *c, int64_t id)
         else
             hi = mid;
     }
-    if (lo == c->count || c->ids[lo] != id || c->features[lo] == 0)
+    return lo < c->count && c->ids[lo] == id ? lo : c->count;
+}
+
+void phks__db_cache_remove(phks__db_cache *c, int64_t id)
+{
+    size_t e = phks__db_cache_find(c, id);
+    if (e == c->count || c->features[e] == 0)
         return;
-    c->features[lo] = 0;
+    c->features[e] = 0;
     c->dead++;
     if (c->dead * 2 > c->count)
         compact(c);
