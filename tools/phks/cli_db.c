@@ -3,7 +3,8 @@
  * in cli_db_add.c): shape databases through the phks_db_* functions.
  */
 #include "cli.h"
-#include "cli_render.h"
+#include "common/cli_common.h"
+#include "render/cli_render.h"
 
 #include <inttypes.h>
 #include <stdlib.h>

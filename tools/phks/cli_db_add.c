@@ -6,6 +6,7 @@
  * entry's is skipped unless --allow-duplicates.
  */
 #include "cli.h"
+#include "common/cli_common.h"
 #include "assimp_reader.h"
 
 #include <dirent.h>

@@ -5,6 +5,7 @@
  * numbering, so its ids are the cleaned mesh's.
  */
 #include "cli.h"
+#include "common/cli_common.h"
 
 #include <errno.h>
 #include <stdlib.h>

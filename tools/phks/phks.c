@@ -6,7 +6,7 @@
  *   phks [global options] COMMAND ARGS...  (global options anywhere)
  */
 #include "cli.h"
-#include "cli_render.h"
+#include "common/cli_common.h"
 
 #include <stdlib.h>
 #include <string.h>

@@ -10,7 +10,7 @@
 #ifndef PHKS_CLI_BENCH_H
 #define PHKS_CLI_BENCH_H
 
-#include "cli.h"
+#include "common/cli_common.h"
 
 enum { KIND_COMPLETE, KIND_PARTIAL, KIND_INCOMPLETE, KIND_COUNT };
 extern const char *const bench_kind_name[KIND_COUNT];

@@ -2,7 +2,7 @@
  * cli_util.c - errors, argument parsing, files and signatures for the
  * `phks` tool.
  */
-#include "cli.h"
+#include "common/cli_common.h"
 
 #include <errno.h>
 #include <stdatomic.h>

@@ -2,7 +2,7 @@
  * cli_json.c - JSON output of the `phks` tool (--json): strings, numbers
  * that read back exactly, and the options that shape signatures.
  */
-#include "cli.h"
+#include "common/cli_common.h"
 
 #include <math.h>
 #include <stdlib.h>
