@@ -20,13 +20,9 @@
 extern int cli_progress_mode;
 /* --object NAME: the OBJ object or group to read, or NULL for all. */
 extern const char *cli_object;
-/* The shaping global options given on the command line (CLI_SET_* bits). */
+/* The options of the library's table given on the command line: bit
+ * 1u << i for option i (phks_option_name). */
 extern unsigned cli_explicit;
-#define CLI_SET_OPERATOR 0x1u
-#define CLI_SET_MARGIN 0x2u
-#define CLI_SET_SCALING 0x4u
-#define CLI_SET_QUADRATURE 0x8u
-#define CLI_SET_MATCHING 0x10u
 
 /* ---- errors and usage (cli_util.c) -------------------------------------- */
 /* The calling thread's last error message (without a leading "what: "),
@@ -60,12 +56,23 @@ int cli_parse(int argc, char **argv, int first, const cli_opt *opts,
 int cli_parse_count(const char *text, unsigned long min, unsigned long max,
                     unsigned long *out);
 
-/* ---- files and signatures (cli_util.c) --------------------------------- */
+/* ---- files (cli_util.c) ------------------------------------------------ */
 /* The whole file into a new buffer (free it); 0, or -1 with errno set. */
 int cli_read_file(const char *path, unsigned char **data, size_t *size);
 /* Writes path atomically: a temporary file beside it, then rename.
  * 0, or -1 with errno set. */
 int cli_write_file_atomic(const char *path, const void *data, size_t size);
+/* Online CPUs, at least 1. */
+unsigned cli_cpu_count(void);
+
+/* ---- meshes (cli_mesh.c) ------------------------------------------------ */
+/* phks_mesh_load, honouring --object for OBJ files and noting on stderr
+ * when an OBJ's several objects are merged; other formats through assimp.
+ * Thread-safe: on failure the message is printed ("phks: path: reason")
+ * and 1 returned. */
+int cli_load_mesh(const char *path, phks_mesh **mesh);
+
+/* ---- signatures of files (cli_signature_file.c) ------------------------- */
 /* The encoded blob of sig into a new buffer (free it). */
 phks_status cli_encode(const phks_signature *sig, unsigned char **blob,
                        size_t *size);
@@ -83,16 +90,21 @@ phks_signature *cli_signature_mesh(const char *path,
                                    phks_mesh **mesh, int verbose);
 /* The file's id of the cleaned mesh's vertex v (v itself without a mesh). */
 uint32_t cli_file_vertex(const phks_mesh *mesh, uint32_t v);
-/* phks_mesh_load, honouring --object for OBJ files and noting on stderr
- * when an OBJ's several objects are merged (cli_mesh.c). Thread-safe: on
- * failure the message is printed ("phks: path: reason") and 1 returned. */
-int cli_load_mesh(const char *path, phks_mesh **mesh);
-/* Online CPUs, at least 1. */
-unsigned cli_cpu_count(void);
-/* "literal" or "random-walk". */
-const char *cli_operator_name(int32_t operator_kind);
+
+/* ---- options in the tool's words (cli_options.c) ------------------------ */
+/* The name of value of the option named `option` in the tool's words:
+ * cli_value_name("hks-scaling", 2) is "local-area". */
+const char *cli_value_name(const char *option, int32_t value);
 /* Prints the options that shape the numbers, one line, with a prefix. */
 void cli_print_options(FILE *out, const char *prefix, const phks_options *o);
+/* 0 when signatures made with a and b are comparable; else 1, with the
+ * first option that differs and both values in the tool's words,
+ * "--hks-scaling none against local-area", in detail. */
+int cli_options_differ(const phks_options *a, const phks_options *b,
+                       char *detail, size_t size);
+/* Puts the tool's words in place of the C names of options and values in
+ * a library message ("boundary_margin" is "boundary-margin"). */
+void cli_options_reword(char *msg);
 
 /* ---- JSON on stdout (cli_json.c) ------------------------------------------ */
 /* A string: quotes, backslashes and control characters escaped, bytes that
@@ -104,19 +116,19 @@ void cli_json_number(double x);
 void cli_json_vec(const double *v, size_t n);
 /* The options that shape signatures, as an object. */
 void cli_json_options(const phks_options *o);
-/* Option values in the tool's words. */
-const char *cli_scaling_name(int32_t hks_scaling);
-const char *cli_box_name(int32_t box);
-const char *cli_quadrature_name(int32_t quadrature);
-const char *cli_matching_name(int32_t matching);
 
-/* ---- databases (cli_db.c) ----------------------------------------------- */
+/* ---- a database's options (cli_db_options.c) ---------------------------- */
 /* The options the signatures of a non-empty database were made with, into
  * *options (its threads kept): the only ones a new signature can be added
  * or queried with. An empty database leaves *options alone. A shaping
  * global option given on the command line that differs from the
  * database's is an error naming it. 0, or 1 after "phks: path: reason". */
 int cli_db_options(phks_db *db, const char *path, phks_options *options);
+/* cli_say_fail of adding or querying the signature of file path: when the
+ * status is PHKS_ERROR_INCOMPATIBLE, the option that differs from the
+ * database's, in the tool's words. Thread-safe. */
+void cli_say_db_fail(phks_db *db, const char *path, const phks_signature *sig,
+                     phks_status status);
 
 /* ---- manifests (cli_manifest.c) ----------------------------------------- */
 typedef struct cli_row {
