@@ -8,7 +8,7 @@
  * descriptor.
  */
 #include "cli.h"
-#include "bench/cli_bench.h"
+#include "bench/cli_bench_parts.h"
 
 #include <errno.h>
 #include <stdlib.h>

@@ -4,7 +4,7 @@
  */
 #include "cli.h"
 #include "common/cli_common.h"
-#include "render/cli_render.h"
+#include "render/cli_pictures.h"
 
 #include <inttypes.h>
 #include <stdlib.h>

@@ -9,7 +9,7 @@
  * maxima; the feature points are the signature's, from the same spectrum.
  */
 #include "cli.h"
-#include "render/cli_render.h"
+#include "render/cli_pictures.h"
 #include "common/cli_common.h"
 
 #include <stdlib.h>

@@ -8,7 +8,7 @@
  */
 #include "cli.h"
 #include "common/cli_common.h"
-#include "render/cli_render.h"
+#include "render/cli_pictures.h"
 
 #include <errno.h>
 #include <math.h>

@@ -4,7 +4,7 @@
  * The encoding is 8-bit RGB with no time or text chunks, so the same image
  * gives the same bytes.
  */
-#include "render/cli_render.h"
+#include "render/cli_pictures.h"
 #include "common/cli_common.h"
 
 #include <errno.h>

@@ -1,5 +1,5 @@
 /*
- * cli_render.h - pictures of meshes for `phks render` (../cli_render.c)
+ * cli_pictures.h - pictures of meshes for `phks render` (../cli_render.c)
  * and `phks db query --png` (docs/cli.md): a software rasteriser, a bitmap
  * font and PNG output, all deterministic (the same bytes every run).
  *
@@ -10,8 +10,8 @@
  *   cli_png.c     PNG encoding through libspng (optional)
  *   cli_sheet.c   the contact sheet of `db query --png`
  */
-#ifndef PHKS_CLI_RENDER_H
-#define PHKS_CLI_RENDER_H
+#ifndef PHKS_CLI_PICTURES_H
+#define PHKS_CLI_PICTURES_H
 
 #include "phks.h"
 
