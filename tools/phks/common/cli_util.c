@@ -1,6 +1,7 @@
 /*
- * cli_util.c - errors, argument parsing, files and signatures for the
- * `phks` tool.
+ * cli_util.c - errors (the library's messages in the tool's words),
+ * usage, argument parsing, files and the global settings of the `phks`
+ * tool.
  */
 #include "common/cli_common.h"
 
