@@ -39,7 +39,16 @@ expect_err "usage: phks signature MESH"
 run "$phks" signature a.off --bogus; expect_rc 2 "unknown option"
 expect_err "unknown option --bogus"
 run "$phks" --operator sideways signature a.off; expect_rc 2 "bad operator"
-expect_err "phks: --operator: bad or missing value sideways"
+expect_err "^phks: --operator: 'sideways' is not one of literal, random-walk$"
+# Values in the tool's words only: the library's table also takes numbers.
+run "$phks" --hks-scaling 2 signature a.off; expect_rc 2 "--hks-scaling 2"
+expect_err "^phks: --hks-scaling: '2' is not one of none, mean, local-area$"
+# Ranges are the library's, said in the tool's words.
+run "$phks" --boundary-margin 101 signature a.off; expect_rc 2 \
+    "--boundary-margin 101"
+expect_err "^phks: --boundary-margin: boundary-margin 101 outside \\[0, 100\\]$"
+run "$phks" --threads 1025 signature a.off; expect_rc 2 "--threads 1025"
+expect_err "^phks: --threads: threads 1025 above 1024$"
 run "$phks" signature a.off --threads; expect_rc 2 "--threads without value"
 
 # ---- --help of every command ----------------------------------------------------
@@ -450,17 +459,20 @@ run "$phks" db query plain.db b.off -k 1; expect_rc 0 \
 expect_out "^ *1 *2 *0 .* b.off$"
 run "$phks" --hks-scaling none db add t.db b.off -j 1; expect_rc 1 \
     "db add with an explicit option the database differs in"
-expect_err "^phks: t.db: --hks-scaling none given, but the database's signatures were made with --hks-scaling local-area"
+expect_err "^phks: t.db: the options given are not the database's: --hks-scaling none against local-area (drop the option, or use another database)$"
 run "$phks" --operator literal db query t.db b.off; expect_rc 1 \
     "db query with an explicit option the database differs in"
-expect_err "^phks: t.db: --operator literal given, .* --operator random-walk"
+expect_err "^phks: t.db: the options given are not the database's: --operator literal against random-walk "
 run "$phks" --hks-scaling local-area db query t.db b.off -k 1; expect_rc 0 \
     "an explicit option equal to the database's"
-# A blob made with other options: the library's message, in full, plus the
-# values in the tool's words.
+# A blob made with other options: the option and both values in the tool's
+# words, never the library's C names (hks_scaling, local_area).
 run "$phks" --hks-scaling none signature a.off -o none.sig; expect_rc 0
 run "$phks" db add t.db none.sig; expect_rc 1 "db add of an incompatible blob"
-expect_err "^phks: none.sig: .*(hks_scaling 0 against 2); phks option --hks-scaling: none against local-area"
+expect_err "^phks: none.sig: made with other options than the database's: --hks-scaling none against local-area$"
+run "$phks" db query t.db none.sig; expect_rc 1 "db query of an incompatible blob"
+expect_err "^phks: none.sig: made with other options than the database's: --hks-scaling none against local-area$"
+! grep -q "hks_scaling\|local_area" err || fail "db query: C spelling in a message"
 # --quadrature: a box of 12 triangles (its faces far longer than the
 # kernel), the option recorded, refused against a database made without.
 printf 'OFF\n8 12 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n0 0 1\n1 0 1\n1 1 1\n0 1 1\n3 0 2 1\n3 0 3 2\n3 4 5 6\n3 4 6 7\n3 0 1 5\n3 0 5 4\n3 1 2 6\n3 1 6 5\n3 2 3 7\n3 2 7 6\n3 3 0 4\n3 3 4 7\n' > box.off
@@ -469,13 +481,13 @@ run "$phks" --quadrature triangles signature box.off --json; expect_rc 0 \
 expect_out '"quadrature": "triangles"'
 run "$phks" --quadrature bogus signature box.off; expect_rc 2 \
     "--quadrature bogus"
-expect_err "^phks: --quadrature: bad or missing value bogus"
+expect_err "^phks: --quadrature: 'bogus' is not one of vertices, triangles$"
 run "$phks" --quadrature triangles db query t.db box.off; expect_rc 1 \
     "db query --quadrature triangles against a database made without"
-expect_err "^phks: t.db: --quadrature triangles given, .* --quadrature vertices"
+expect_err "^phks: t.db: the options given are not the database's: --quadrature triangles against vertices "
 run "$phks" --quadrature triangles signature box.off -o q.sig; expect_rc 0
 run "$phks" match q.sig box.off; expect_rc 1 "match of blobs made with other quadratures"
-expect_err "(quadrature 1 against 0); phks option --quadrature: triangles against vertices"
+expect_err "^phks: q.sig and box.off: made with different options: --quadrature triangles against vertices$"
 # Blobs, directories, duplicates.
 mkdir -p tree/sub tree/sub/deeper
 cp a.off tree/sub/z.off; cp a.sig tree/a.sig; cp b.off tree/sub/deeper/b.off

@@ -7,7 +7,8 @@
  * part, and cli_bench_features.c makes the comparison rows' features and
  * descriptor.
  */
-#include "cli_bench.h"
+#include "cli.h"
+#include "bench/cli_bench_parts.h"
 
 #include <errno.h>
 #include <stdlib.h>

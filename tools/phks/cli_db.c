@@ -3,7 +3,8 @@
  * in cli_db_add.c): shape databases through the phks_db_* functions.
  */
 #include "cli.h"
-#include "cli_render.h"
+#include "common/cli_common.h"
+#include "render/cli_pictures.h"
 
 #include <inttypes.h>
 #include <stdlib.h>
@@ -56,67 +57,6 @@ static void print_hits(const phks_hit *hits, size_t count, int json)
     printf("%s]\n", count ? "\n" : "");
 }
 
-int cli_db_options(phks_db *db, const char *path, phks_options *options)
-{
-    int64_t first;
-    size_t listed = 0;
-    phks_signature *sig = NULL;
-    phks_status st = phks_db_list(db, 0, &first, 1, &listed);
-    if (st == PHKS_OK && listed == 1)
-        st = phks_db_get(db, first, &sig, NULL, 0, NULL, 0);
-    if (st != PHKS_OK)
-        return cli_fail(path, st);
-    if (!sig)
-        return 0;
-    phks_options db_options;
-    phks_signature_options(sig, &db_options);
-    phks_signature_free(sig);
-    char given[64] = "", theirs[64] = "", name[32] = "";
-    if ((cli_explicit & CLI_SET_OPERATOR) &&
-        options->operator_kind != db_options.operator_kind) {
-        snprintf(name, sizeof name, "--operator");
-        snprintf(given, sizeof given, "%s",
-                 cli_operator_name(options->operator_kind));
-        snprintf(theirs, sizeof theirs, "%s",
-                 cli_operator_name(db_options.operator_kind));
-    } else if ((cli_explicit & CLI_SET_SCALING) &&
-               options->hks_scaling != db_options.hks_scaling) {
-        snprintf(name, sizeof name, "--hks-scaling");
-        snprintf(given, sizeof given, "%s",
-                 cli_scaling_name(options->hks_scaling));
-        snprintf(theirs, sizeof theirs, "%s",
-                 cli_scaling_name(db_options.hks_scaling));
-    } else if ((cli_explicit & CLI_SET_QUADRATURE) &&
-               options->quadrature != db_options.quadrature) {
-        snprintf(name, sizeof name, "--quadrature");
-        snprintf(given, sizeof given, "%s",
-                 cli_quadrature_name(options->quadrature));
-        snprintf(theirs, sizeof theirs, "%s",
-                 cli_quadrature_name(db_options.quadrature));
-    } else if ((cli_explicit & CLI_SET_MATCHING) &&
-               options->matching != db_options.matching) {
-        snprintf(name, sizeof name, "--matching");
-        snprintf(given, sizeof given, "%s", cli_matching_name(options->matching));
-        snprintf(theirs, sizeof theirs, "%s",
-                 cli_matching_name(db_options.matching));
-    } else if ((cli_explicit & CLI_SET_MARGIN) &&
-               options->boundary_margin != db_options.boundary_margin) {
-        snprintf(name, sizeof name, "--boundary-margin");
-        snprintf(given, sizeof given, "%g", options->boundary_margin);
-        snprintf(theirs, sizeof theirs, "%g", db_options.boundary_margin);
-    }
-    if (*name) {
-        fprintf(stderr, "phks: %s: %s %s given, but the database's "
-                "signatures were made with %s %s (drop the option, or use "
-                "another database)\n", path, name, given, name, theirs);
-        return 1;
-    }
-    uint32_t threads = options->threads;
-    *options = db_options;
-    options->threads = threads;
-    return 0;
-}
-
 static int db_query(int argc, char **argv, const phks_options *defaults)
 {
     const char *k_text = "10", *png = NULL;
@@ -152,8 +92,13 @@ static int db_query(int argc, char **argv, const phks_options *defaults)
     int rc = 1;
     if (query && !hits)
         cli_error(argv[1], "out of memory");
-    else if (hits && (st = phks_db_query(db, query, k, hits, &count)) != PHKS_OK)
-        cli_fail(argv[1], st);
+    else if (hits && (st = phks_db_query(db, query, k, hits, &count)) != PHKS_OK) {
+        /* A .sig made with other options: that file is the one to blame. */
+        if (st == PHKS_ERROR_INCOMPATIBLE)
+            cli_say_db_fail(db, argv[2], query, st);
+        else
+            cli_fail(argv[1], st);
+    }
     else if (hits) {
         print_hits(hits, count, json);
         rc = png ? cli_sheet_write(png, db, argv[2], query, hits, count) : 0;

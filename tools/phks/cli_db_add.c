@@ -6,6 +6,7 @@
  * entry's is skipped unless --allow-duplicates.
  */
 #include "cli.h"
+#include "common/cli_common.h"
 #include "assimp_reader.h"
 
 #include <dirent.h>
@@ -167,9 +168,9 @@ static void add_one(void *ctx, size_t i)
         if (!twin && st == PHKS_OK &&
             seen_put(&job->seen, cli_hash_bytes(0, blob, size), id) != 0)
             st = PHKS_ERROR_OUT_OF_MEMORY;
-        pthread_mutex_unlock(&job->lock);
         if (st != PHKS_OK)
-            cli_say_fail(job->paths[i], st);
+            cli_say_db_fail(job->db, job->paths[i], sig, st);
+        pthread_mutex_unlock(&job->lock);
     }
     if (twin) {
         cli_say(stdout, "skipped %s: the same signature as entry %" PRId64

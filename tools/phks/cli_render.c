@@ -8,8 +8,9 @@
  * spectrum, the HKS at T tau and phks_persistent_maxima with at most N
  * maxima; the feature points are the signature's, from the same spectrum.
  */
-#include "cli_render.h"
 #include "cli.h"
+#include "render/cli_pictures.h"
+#include "common/cli_common.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -22,7 +23,8 @@ typedef struct picture {
     size_t regions;
 } picture;
 
-int cli_parse_size(const char *text, int *w, int *h)
+/* Parses "WxH" (each 16..4096); 0, or -1. */
+static int parse_size(const char *text, int *w, int *h)
 {
     char *end;
     if (!text || *text < '0' || *text > '9')
@@ -189,7 +191,7 @@ int cli_render(int argc, char **argv, const phks_options *options)
     unsigned long regions = options->feature_count;
     double time = options->feature_scale;
     if (cli_parse(argc, argv, 1, opts, 4, &n) != 0 || n < 1 || n > 2 || !out ||
-        cli_parse_size(size, &w, &h) != 0 ||
+        parse_size(size, &w, &h) != 0 ||
         (regions_text &&
          cli_parse_count(regions_text, 1, 100000, &regions) != 0) ||
         (time_text && parse_time(time_text, &time) != 0))

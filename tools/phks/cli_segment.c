@@ -7,7 +7,8 @@
  * own. Vertex ids printed are the input file's.
  */
 #include "cli.h"
-#include "cli_render.h"
+#include "common/cli_common.h"
+#include "render/cli_pictures.h"
 
 #include <errno.h>
 #include <math.h>

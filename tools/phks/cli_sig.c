@@ -5,6 +5,7 @@
  * numbering, so its ids are the cleaned mesh's.
  */
 #include "cli.h"
+#include "common/cli_common.h"
 
 #include <errno.h>
 #include <stdlib.h>
@@ -194,6 +195,22 @@ static void text_match(const side *a, const side *b,
     }
 }
 
+/* The library names the option that differs in C ("quadrature triangles
+ * against vertices" of its fields); the tool's users know "--quadrature". */
+static int incompatible(const side *a, const side *b, const char *what,
+                        phks_status st)
+{
+    phks_options oa, ob;
+    char detail[256];
+    phks_signature_options(a->sig, &oa);
+    phks_signature_options(b->sig, &ob);
+    if (!cli_options_differ(&oa, &ob, detail, sizeof detail))
+        return cli_fail(what, st);
+    fprintf(stderr, "phks: %s: made with different options: %s\n", what,
+            detail);
+    return 1;
+}
+
 static int print_match(const side *a, const side *b, const char *what,
                        int json)
 {
@@ -207,7 +224,8 @@ static int print_match(const side *a, const side *b, const char *what,
         st = phks_match(a->sig, b->sig, c, count, &count, &score);
     if (st != PHKS_OK) {
         free(c);
-        return cli_fail(what, st);
+        return st == PHKS_ERROR_INCOMPATIBLE ? incompatible(a, b, what, st)
+                                             : cli_fail(what, st);
     }
     if (json)
         json_match(a, b, c, count, score);

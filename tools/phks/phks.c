@@ -6,7 +6,7 @@
  *   phks [global options] COMMAND ARGS...  (global options anywhere)
  */
 #include "cli.h"
-#include "cli_render.h"
+#include "common/cli_common.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -47,6 +47,8 @@ static const char usage_text[] =
     "             [--queries-out TSV] [-j N (CPUs)] [--json]\n"
     "  phks --version | --help\n";
 
+/* The global options with a value: --object, and options of the library's
+ * table after "--" (phks_option_find). */
 static const char *const globals[] = {"--operator", "--threads",
                                       "--boundary-margin", "--hks-scaling",
                                       "--quadrature", "--matching",
@@ -72,61 +74,55 @@ static int is_global(const char *arg)
     return 0;
 }
 
-/* Sets global option `name` to v; 0, or -1 when v is not a valid value. */
+/* The library's table also takes an enum's number ("--hks-scaling 2");
+ * the tool has always taken the names only. */
+static int is_enum_number(uint32_t index, const char *text)
+{
+    return phks_option_value_name(index, 0, PHKS_SPELLING_CLI) && *text &&
+           strspn(text, "0123456789") == strlen(text);
+}
+
+/* "'2' is not one of none, mean, local-area", as phks_option_set says it
+ * of other text. */
+static int not_a_value(const char *name, uint32_t index, const char *text)
+{
+    char names[256] = "";
+    const char *value;
+    for (int32_t v = 0;
+         (value = phks_option_value_name(index, v, PHKS_SPELLING_CLI)); v++)
+        snprintf(names + strlen(names), sizeof names - strlen(names), "%s%s",
+                 v ? ", " : "", value);
+    fprintf(stderr, "phks: %s: '%s' is not one of %s\n", name, text, names);
+    return -1;
+}
+
+/* Sets global option `name` to v from the library's table of options (or
+ * --object); 0, or -1 after a message saying what is wrong. */
 static int set_global(const char *name, const char *v, phks_options *o)
 {
-    unsigned long count;
-    char *end;
-    if (!v)
+    if (!v) {
+        fprintf(stderr, "phks: option %s needs a value\n", name);
         return -1;
-    if (strcmp(name, "--object") == 0) {
-        if (!*v)
-            return -1;
-        cli_object = v;
-    } else if (strcmp(name, "--operator") == 0) {
-        cli_explicit |= CLI_SET_OPERATOR;
-        if (strcmp(v, "literal") != 0 && strcmp(v, "random-walk") != 0)
-            return -1;
-        o->operator_kind = strcmp(v, "literal") == 0
-                               ? PHKS_OPERATOR_LITERAL
-                               : PHKS_OPERATOR_RANDOM_WALK;
-    } else if (strcmp(name, "--threads") == 0) {
-        if (cli_parse_count(v, 0, 1024, &count) != 0)
-            return -1;
-        o->threads = (uint32_t)count;
-    } else if (strcmp(name, "--hks-scaling") == 0) {
-        cli_explicit |= CLI_SET_SCALING;
-        if (strcmp(v, "none") == 0)
-            o->hks_scaling = PHKS_HKS_SCALING_NONE;
-        else if (strcmp(v, "mean") == 0)
-            o->hks_scaling = PHKS_HKS_SCALING_MEAN;
-        else if (strcmp(v, "local-area") == 0)
-            o->hks_scaling = PHKS_HKS_SCALING_LOCAL_AREA;
-        else
-            return -1;
-    } else if (strcmp(name, "--quadrature") == 0) {
-        cli_explicit |= CLI_SET_QUADRATURE;
-        if (strcmp(v, "vertices") == 0)
-            o->quadrature = PHKS_QUADRATURE_VERTICES;
-        else if (strcmp(v, "triangles") == 0)
-            o->quadrature = PHKS_QUADRATURE_TRIANGLES;
-        else
-            return -1;
-    } else if (strcmp(name, "--matching") == 0) {
-        cli_explicit |= CLI_SET_MATCHING;
-        if (strcmp(v, "verified") == 0)
-            o->matching = PHKS_MATCHING_VERIFIED;
-        else if (strcmp(v, "nearest") == 0)
-            o->matching = PHKS_MATCHING_NEAREST;
-        else
-            return -1;
-    } else {
-        cli_explicit |= CLI_SET_MARGIN;
-        double margin = strtod(v, &end);
-        if (end == v || *end || !(margin >= 0 && margin <= 100))
-            return -1;
-        o->boundary_margin = margin;
     }
+    if (strcmp(name, "--object") == 0) {
+        if (!*v) {
+            cli_error(name, "the name is empty");
+            return -1;
+        }
+        cli_object = v;
+        return 0;
+    }
+    uint32_t index;
+    phks_status st = phks_option_find(name + 2, PHKS_SPELLING_CLI, &index);
+    if (st == PHKS_OK && is_enum_number(index, v))
+        return not_a_value(name, index, v);
+    if (st == PHKS_OK)
+        st = phks_option_set(o, index, v, PHKS_SPELLING_CLI);
+    if (st != PHKS_OK) {
+        cli_error(name, cli_reason(name + 2, st));
+        return -1;
+    }
+    cli_explicit |= 1u << index;
     return 0;
 }
 
@@ -147,12 +143,8 @@ static int take_globals(int argc, char **argv, phks_options *o)
             argv[n++] = argv[i];
             continue;
         }
-        const char *v = i + 1 < argc ? argv[i + 1] : NULL;
-        if (set_global(argv[i], v, o) != 0) {
-            fprintf(stderr, "phks: %s: bad or missing value%s%s\n", argv[i],
-                    v ? " " : "", v ? v : "");
+        if (set_global(argv[i], i + 1 < argc ? argv[i + 1] : NULL, o) != 0)
             return -1;
-        }
         i++;
     }
     argv[n] = NULL;

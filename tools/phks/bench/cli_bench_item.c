@@ -5,7 +5,7 @@
  * the feature points next to the cut, and for the source part trace each
  * feature point of a version back to the source mesh.
  */
-#include "cli_bench.h"
+#include "bench/cli_bench_parts.h"
 #include "assimp_reader.h"
 #include "partial.h"
 

@@ -2,7 +2,7 @@
  * cli_manifest.c - the TSV manifests of `phks db add --manifest` and
  * `phks bench`: a header line, then one file per line with its class.
  */
-#include "cli.h"
+#include "common/cli_common.h"
 
 #include <errno.h>
 #include <stdlib.h>

@@ -6,7 +6,7 @@
  * drawn as '?'. A glyph advances 6 pixels (one of spacing); a line is 9
  * pixels high (7 and a gap of 2), times the scale.
  */
-#include "cli_render.h"
+#include "render/cli_pictures.h"
 
 #include <stdio.h>
 #include <string.h>

@@ -6,8 +6,8 @@
  * stores it, relative to the current folder) with the feature points of its
  * signature, or a placeholder; under it the name and the score.
  */
-#include "cli_render.h"
-#include "cli.h"
+#include "render/cli_pictures.h"
+#include "common/cli_common.h"
 #include "assimp_reader.h"
 
 #include <stdlib.h>

@@ -1,18 +1,17 @@
 /*
- * cli_render.h - pictures of meshes for `phks render` and `phks db query
- * --png` (docs/cli.md): a software rasteriser, a bitmap font and PNG
- * output, all deterministic (the same bytes every run).
+ * cli_pictures.h - pictures of meshes for `phks render` (../cli_render.c)
+ * and `phks db query --png` (docs/cli.md): a software rasteriser, a bitmap
+ * font and PNG output, all deterministic (the same bytes every run).
  *
  *   cli_raster.c  RGB images: rectangles, discs, lines, downsampling
  *   cli_font.c    the 5x7 bitmap font
  *   cli_view.c    a mesh's view (principal axes, oblique) and its z-buffered,
  *                 Lambert-shaded drawing
  *   cli_png.c     PNG encoding through libspng (optional)
- *   cli_render.c  the `render` command: regions, features, matches
  *   cli_sheet.c   the contact sheet of `db query --png`
  */
-#ifndef PHKS_CLI_RENDER_H
-#define PHKS_CLI_RENDER_H
+#ifndef PHKS_CLI_PICTURES_H
+#define PHKS_CLI_PICTURES_H
 
 #include "phks.h"
 
@@ -111,12 +110,7 @@ int cli_png_supported(void);
  * "phks: path: reason" ("built without PNG support" without libspng). */
 int cli_png_write(const char *path, const cli_image *im);
 
-/* ---- commands ------------------------------------------------------------- */
-/* phks render MESH [B] -o OUT.png [--size WxH] [--regions N] [--time T] */
-int cli_render(int argc, char **argv, const phks_options *options);
-/* Parses "WxH" (each 16..4096); 0, or -1. */
-int cli_parse_size(const char *text, int *w, int *h);
-
+/* ---- the contact sheet (cli_sheet.c) -------------------------------------- */
 /* The contact sheet of `db query --png`: the query (mesh_path, a mesh or a
  * .sig, with its signature query) and its hits, each tile a picture of the
  * mesh the entry's name points to, or a placeholder, labelled with the name

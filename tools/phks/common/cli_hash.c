@@ -3,7 +3,7 @@
  * splitmix64 finaliser applied after every byte or word. Portable and
  * stable: the same input gives the same value on every machine.
  */
-#include "cli.h"
+#include "common/cli_common.h"
 
 #include <string.h>
 

@@ -2,7 +2,7 @@
  * cli_bench_score.c - one seed of `phks bench`: its database in memory, its
  * queries, and the markdown tables of the counts.
  */
-#include "cli_bench.h"
+#include "bench/cli_bench_parts.h"
 
 #include <stdlib.h>
 #include <string.h>

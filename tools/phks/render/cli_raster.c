@@ -4,7 +4,7 @@
  * [i, i + 1) x [j, j + 1); shapes cover the pixels whose centre they
  * contain, so every drawing is exact and repeatable.
  */
-#include "cli_render.h"
+#include "render/cli_pictures.h"
 
 #include <math.h>
 #include <stdlib.h>

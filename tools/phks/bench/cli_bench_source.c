@@ -4,7 +4,7 @@
  * a database of the complete versions, and its feature points are matched
  * to the source's, checked against the points they came from.
  */
-#include "cli_bench.h"
+#include "bench/cli_bench_parts.h"
 
 #include <math.h>
 #include <stdlib.h>

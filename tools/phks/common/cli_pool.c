@@ -2,7 +2,7 @@
  * cli_pool.c - a pool of worker threads over an index range, and output from
  * several threads that keeps a progress bar on stderr intact.
  */
-#include "cli.h"
+#include "common/cli_common.h"
 
 #include <dlfcn.h>
 #include <pthread.h>

@@ -4,7 +4,7 @@
  * z-buffered rasteriser with two-sided Lambert shading by face normal at
  * up to 3x3 samples per pixel, the feature markers and the region palette.
  */
-#include "cli_render.h"
+#include "render/cli_pictures.h"
 
 #include <math.h>
 #include <stdlib.h>

@@ -1,16 +1,16 @@
 /*
- * cli_bench.h - the parts of `phks bench` (docs/cli.md, "bench"): the plan
- * of models and signatures to compute (cli_bench.c), computing one
- * signature (cli_bench_item.c), scoring and reporting the protocol
+ * cli_bench_parts.h - the parts of `phks bench` (docs/cli.md, "bench"):
+ * the plan of models and signatures to compute (../cli_bench.c), computing
+ * one signature (cli_bench_item.c), scoring and reporting the protocol
  * (cli_bench_score.c), the source part: retrieving each version's own
  * source and checking its correspondences (cli_bench_source.c), and the
  * comparison rows: other feature functions and the eigenvalue descriptor
  * (cli_bench_features.c).
  */
-#ifndef PHKS_CLI_BENCH_H
-#define PHKS_CLI_BENCH_H
+#ifndef PHKS_CLI_BENCH_PARTS_H
+#define PHKS_CLI_BENCH_PARTS_H
 
-#include "cli.h"
+#include "common/cli_common.h"
 
 enum { KIND_COMPLETE, KIND_PARTIAL, KIND_INCOMPLETE, KIND_COUNT };
 extern const char *const bench_kind_name[KIND_COUNT];

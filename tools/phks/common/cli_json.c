@@ -2,7 +2,7 @@
  * cli_json.c - JSON output of the `phks` tool (--json): strings, numbers
  * that read back exactly, and the options that shape signatures.
  */
-#include "cli.h"
+#include "common/cli_common.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -58,32 +58,11 @@ void cli_json_vec(const double *v, size_t n)
     putchar(']');
 }
 
-const char *cli_scaling_name(int32_t hks_scaling)
-{
-    return hks_scaling == PHKS_HKS_SCALING_MEAN         ? "mean"
-           : hks_scaling == PHKS_HKS_SCALING_LOCAL_AREA ? "local-area"
-                                                        : "none";
-}
-
-const char *cli_quadrature_name(int32_t quadrature)
-{
-    return quadrature == PHKS_QUADRATURE_TRIANGLES ? "triangles" : "vertices";
-}
-
-const char *cli_matching_name(int32_t matching)
-{
-    return matching == PHKS_MATCHING_VERIFIED ? "verified" : "nearest";
-}
-
-const char *cli_box_name(int32_t box)
-{
-    return box == PHKS_BOX_AXIS_ALIGNED ? "axis-aligned" : "principal";
-}
-
 void cli_json_options(const phks_options *o)
 {
     printf("{\"operator\": \"%s\", \"box\": \"%s\", \"tau\": ",
-           cli_operator_name(o->operator_kind), cli_box_name(o->box));
+           cli_value_name("operator", o->operator_kind),
+           cli_value_name("box", o->box));
     cli_json_number(o->tau);
     fputs(", \"cutoff\": ", stdout);
     cli_json_number(o->cutoff);
@@ -98,8 +77,8 @@ void cli_json_options(const phks_options *o)
     printf(", \"hks_scaling\": \"%s\", \"quadrature\": \"%s\", "
            "\"matching\": \"%s\", "
            "\"simplify_above\": %u, \"simplify_target\": %u}",
-           cli_scaling_name(o->hks_scaling),
-           cli_quadrature_name(o->quadrature),
-           cli_matching_name(o->matching), o->simplify_above,
+           cli_value_name("hks-scaling", o->hks_scaling),
+           cli_value_name("quadrature", o->quadrature),
+           cli_value_name("matching", o->matching), o->simplify_above,
            o->simplify_target);
 }

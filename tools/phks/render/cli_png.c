@@ -4,8 +4,8 @@
  * The encoding is 8-bit RGB with no time or text chunks, so the same image
  * gives the same bytes.
  */
-#include "cli_render.h"
-#include "cli.h"
+#include "render/cli_pictures.h"
+#include "common/cli_common.h"
 
 #include <errno.h>
 #include <stdlib.h>

@@ -1,5 +1,5 @@
 /*
- * cli_obj.c - loading meshes for the `phks` tool: OBJ files with several
+ * cli_mesh.c - loading meshes for the `phks` tool: OBJ files with several
  * objects or groups (`o` and `g` statements) are either merged into one
  * shape, with a note on stderr, or cut down to the one named by the global
  * option --object NAME. The cut keeps every line but the faces of other
@@ -8,7 +8,7 @@
  * COLLADA, ...) go through assimp (tools/assimp/assimp_reader.c), with the same merging,
  * note and --object.
  */
-#include "cli.h"
+#include "common/cli_common.h"
 #include "assimp_reader.h"
 
 #include <ctype.h>

@@ -5,7 +5,7 @@
  * curvature (GC) instead of HKS, with the same vectors and score; and an
  * eigenvalue descriptor, a ranking by the first eigenvalues alone.
  */
-#include "cli_bench.h"
+#include "bench/cli_bench_parts.h"
 
 #include <math.h>
 #include <stdio.h>
