@@ -1,16 +1,16 @@
 /*
  * db.h - the database layer's own declarations, private to it (and its
  * tests). Its files, one concern each:
- *   db_open.c    opening and closing; the header, schema and upgrade
- *   db_sql.c     SQLite errors, statements and transactions
- *   db_options.c the options every signature of a file shares
- *   db_read.c    count, list, get and query
- *   db_write.c   add and remove, each one write transaction
- *   db_load.c    loading the packed copy and keeping it the file's
- *   db_scan.c    the packed copy in memory and the top-k scan over it
- *   db_pack.c    a packed chunk's bytes
- *   db_packs.c   the packs table those chunks live in
- *   db_rerank.c  the verified stage of a query
+ *   db_open.c       opening and closing; the header, schema and upgrade
+ *   db_sql.c        SQLite errors, statements and transactions
+ *   db_options.c    the options every signature of a file shares
+ *   db_read.c       count, list, get and query
+ *   db_write.c      add and remove, each one write transaction
+ *   db_load.c       loading the packed copy and keeping it the file's
+ *   db_scan.c       the packed copy in memory and the top-k scan over it
+ *   db_pack.c       a packed chunk's bytes
+ *   db_pack_table.c the packs table those chunks live in
+ *   db_rerank.c     the verified stage of a query
  */
 #ifndef PHKS_DB_H
 #define PHKS_DB_H
@@ -193,7 +193,7 @@ phks_status phks__db_pack_decode(phks__db_cache *cache, int64_t start,
                                 size_t size, phks__db_pack_read_fn read,
                                 void *ctx);
 
-/* ---- the packs table (db_packs.c), with lock held */
+/* ---- the packs table (db_pack_table.c), with lock held */
 /* The row of pack_state (present false in a file without one). */
 typedef struct phks__db_pack_state {
     bool present;

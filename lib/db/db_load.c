@@ -1,6 +1,6 @@
 /*
  * db_load.c - keeping a handle's packed copy (db_scan.c) the file's:
- * loading it, from the packed chunks when they are current (db_packs.c)
+ * loading it, from the packed chunks when they are current (db_pack_table.c)
  * else from the rows, and noticing when another connection changed the
  * file.
  *

@@ -1,7 +1,7 @@
 /*
  * db_write.c - adding and removing entries. Each call is one write
  * transaction: the rows, the options the first entry sets, and the
- * packed chunks (db_packs.c) commit together or not at all, and a batch
+ * packed chunks (db_pack_table.c) commit together or not at all, and a batch
  * of a thousand entries costs one fsync, not a thousand.
  *
  * Entries are checked whole before the transaction starts, so a bad one

@@ -1,5 +1,5 @@
 /*
- * db_packs.c - the packs table of format 2 (docs/formats.md): the
+ * db_pack_table.c - the packs table of format 2 (docs/formats.md): the
  * packed copy kept inside the file, so that a fresh handle loads it by
  * reading chunks (laid out by db_pack.c) instead of decoding every
  * signature.
