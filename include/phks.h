@@ -28,6 +28,13 @@
  *   not be freed while another thread uses it. phks_set_allocator() is the
  *   one function that must be called before any other thread uses the
  *   library.
+ * - Determinism: on one machine and one build of the library and of the
+ *   BLAS, results (a signature's blob, every score) are the same bits on
+ *   every run, whatever the threads option and the BLAS's own thread count
+ *   (OPENBLAS_NUM_THREADS). Not across BLAS builds, nor across processors
+ *   where the library's run-time kernel choice (AVX2 and FMA) differs; and
+ *   with PHKS_SOLVER_ARPACK, ARPACK's own BLAS calls may round differently
+ *   with the BLAS's thread count (docs/guide.md, "Threads").
  * - Pointers returned by accessors stay valid until the handle is freed.
  * - Index types: vertex and triangle indices are uint32_t; counts are size_t.
  */
@@ -305,7 +312,9 @@ typedef struct phks_options {
                                 joined before it returns. BLAS threads
                                 are left to the user
                                 (OPENBLAS_NUM_THREADS; on a few cores 1
-                                is fastest: docs/benchmarks.md).         */
+                                is fastest: docs/benchmarks.md). Neither
+                                count changes a bit of the results
+                                (the conventions above).                 */
     double tolerance;        /* eigen-solver: residual |B x - l x| below
                                 tolerance * |B|: 1e-10                   */
     phks_progress_fn progress; /* NULL: no progress reports             */

@@ -51,8 +51,10 @@
  * Gram-Schmidt and QR products take those row-major blocks as they are
  * (lanczos_gram.c). All of these run on the library's threads, each
  * result entry summed by one thread in a fixed order, so results are
- * bit-identical between runs and for any value of the threads option (the
- * BLAS's own thread count being fixed); between products
+ * bit-identical between runs and for any value of the threads option; the
+ * steps whose LAPACK routines rounded differently with the BLAS's thread
+ * count (the QR of a block, T's tridiagonal reduction) are the library's
+ * own (householder.c), so neither count moves a bit; between products
  * the solver makes no BLAS call (whose idle threads would compete with its
  * own), only in the convergence checks and the final Ritz vectors.
  *

@@ -5,6 +5,7 @@
  * when that is ill-conditioned) and the block step that ties them.
  */
 #include "eigen/lanczos.h"
+#include "eigen/householder.h"
 
 #include <cblas.h>
 #include <math.h>
@@ -106,7 +107,7 @@ phks_status phks__lanczos_allocate(phks__lanczos *L, size_t first)
  * product is several times faster than dnrm2's scaled sum. */
 static double norm2(size_t n, const double *x)
 {
-    return sqrt(cblas_ddot((int)n, x, 1, x, 1));
+    return sqrt(phks__dot(x, x, n));
 }
 
 /* A fixed pseudo-random block, so that every run starts alike. */
@@ -194,29 +195,20 @@ static void orthogonalise(phks__lanczos *L, const phks__lanczos_engine *e, size_
 
 /* Householder QR of the n x b block w: w becomes Q, r (b x b, column-major)
  * receives R. Returns the smallest |R_ii| relative to the largest column
- * norm of w before. */
+ * norm of w before. The library's own QR (householder.c), not LAPACK's,
+ * whose bits depend on the BLAS's thread count. */
 phks_status phks__lanczos_qr(phks__lanczos *L, double *w, double *r, double *smallest)
 {
     size_t n = L->n, b = L->b;
-    double big = 0;
+    double big = 0, rb[BLOCK * BLOCK];
     for (size_t j = 0; j < b; j++)
         big = fmax(big, norm2(n, w + j * n));
-    lapack_int info = LAPACKE_dgeqrf(LAPACK_COL_MAJOR, (lapack_int)n,
-                                     (lapack_int)b, w, (lapack_int)n, L->tau);
-    if (info != 0)
-        return phks__fail(PHKS_ERROR_SOLVER, "Lanczos: dgeqrf info %d", (int)info);
+    phks__householder_qr(w, n, b, rb, L->tau);
     double s = INFINITY;
     for (size_t j = 0; j < b; j++)
-        for (size_t i = 0; i < b; i++) {
-            if (r)
-                r[j * b + i] = i <= j ? w[j * n + i] : 0;
-            if (i == j)
-                s = fmin(s, fabs(w[j * n + i]));
-        }
-    info = LAPACKE_dorgqr(LAPACK_COL_MAJOR, (lapack_int)n, (lapack_int)b,
-                          (lapack_int)b, w, (lapack_int)n, L->tau);
-    if (info != 0)
-        return phks__fail(PHKS_ERROR_SOLVER, "Lanczos: dorgqr info %d", (int)info);
+        s = fmin(s, fabs(rb[j * b + j]));
+    if (r)
+        memcpy(r, rb, b * b * sizeof *r);
     *smallest = big > 0 ? s / big : 0;
     return PHKS_OK;
 }

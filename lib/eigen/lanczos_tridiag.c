@@ -5,6 +5,7 @@
  * vectors and residuals, and the convergence check built on them.
  */
 #include "eigen/lanczos.h"
+#include "eigen/householder.h"
 
 #include <cblas.h>
 #include <math.h>
@@ -16,25 +17,19 @@
  * tfull and reflect), and edge = Q^T times the last b unit vectors, which
  * is all the residuals need of the reflectors. The reduction (O(m^3), the
  * costly part: docs/benchmarks.md) serves every pairs_t call until T or
- * tfull changes. */
+ * tfull changes. It is the library's own (householder.c): LAPACK's dsytrd
+ * and dormtr gave bits that depend on the BLAS's thread count. */
 phks_status phks__lanczos_reduce_t(phks__lanczos *L, size_t m)
 {
     size_t b = L->b;
     for (size_t j = 0; j < m; j++)
-        memcpy(L->tfull + j * m, L->t + j * L->room, (j + 1) * sizeof(double));
-    lapack_int info = LAPACKE_dsytrd(LAPACK_COL_MAJOR, 'U', (lapack_int)m,
-                                     L->tfull, (lapack_int)m, L->diag, L->off,
-                                     L->reflect);
-    if (info != 0)
-        return phks__fail(PHKS_ERROR_SOLVER, "Lanczos: dsytrd info %d", (int)info);
+        for (size_t i = 0; i <= j; i++)
+            L->tfull[j * m + i] = L->tfull[i * m + j] = L->t[j * L->room + i];
+    phks__tridiagonal_reduce(L->tfull, m, L->diag, L->off, L->reflect, L->diag_work);
     memset(L->edge, 0, m * b * sizeof(double));
     for (size_t j = 0; j < b; j++)
         L->edge[j * m + m - b + j] = 1;
-    info = LAPACKE_dormtr(LAPACK_COL_MAJOR, 'L', 'U', 'T', (lapack_int)m,
-                          (lapack_int)b, L->tfull, (lapack_int)m, L->reflect,
-                          L->edge, (lapack_int)m);
-    if (info != 0)
-        return phks__fail(PHKS_ERROR_SOLVER, "Lanczos: dormtr info %d", (int)info);
+    phks__tridiagonal_apply(L->tfull, m, L->reflect, true, L->edge, b);
     return PHKS_OK;
 }
 
@@ -137,16 +132,12 @@ phks_status phks__lanczos_ritz_vectors(phks__lanczos *L, size_t m, size_t first,
 {
     double *s = L->ritz;
     memmove(s, s + first * m, count * m * sizeof(double));
-    lapack_int info = LAPACKE_dormtr(LAPACK_COL_MAJOR, 'L', 'U', 'N',
-                                     (lapack_int)m, (lapack_int)count, L->tfull,
-                                     (lapack_int)m, L->reflect, s, (lapack_int)m);
-    if (info != 0)
-        return phks__fail(PHKS_ERROR_SOLVER, "Lanczos: dormtr info %d", (int)info);
+    phks__tridiagonal_apply(L->tfull, m, L->reflect, false, s, count);
     /* the Gram matrix goes where T's reduction was: it is not needed now */
     double *gram = L->tfull;
     cblas_dsyrk(CblasColMajor, CblasUpper, CblasTrans, (int)count, (int)m, 1.0, s,
                 (int)m, 0.0, gram, (int)count);
-    info = LAPACKE_dpotrf(LAPACK_COL_MAJOR, 'U', (lapack_int)count, gram,
+    lapack_int info = LAPACKE_dpotrf(LAPACK_COL_MAJOR, 'U', (lapack_int)count, gram,
                           (lapack_int)count);
     if (info != 0)
         return phks__fail(PHKS_ERROR_SOLVER, "Lanczos: dpotrf info %d", (int)info);
