@@ -251,8 +251,9 @@ typedef enum phks_solver {
     /* ARPACK-NG (implicitly restarted Lanczos). The reference; slower.
      * ARPACK keeps global state, so the library serialises these calls. */
     PHKS_SOLVER_ARPACK = 2,
-    /* Dense LAPACK (dsyevr) on the full matrix. O(n^2) memory, O(n^3) time:
-     * meant for meshes of a few thousand vertices. */
+    /* Dense on the full matrix: the library's own tridiagonal reduction,
+     * LAPACK's bisection and inverse iteration (dstebz, dstein). O(n^2)
+     * memory, O(n^3) time: meant for meshes of a few thousand vertices. */
     PHKS_SOLVER_DENSE = 3
 } phks_solver;
 

@@ -89,10 +89,16 @@ END_TEST
  * relative. Not to rounding: a vertex pair at the kernel's cut-off radius
  * can fall on either side of it once the input moved, and its weight,
  * e^-(cutoff^2) = 5e-6 of the largest, then changes that vertex's HKS by a
- * few 1e-5 (measured: 4.4e-5 at one vertex of the hand, 1e-14 elsewhere). (Symmetric shapes have mirror-twin vertices whose HKS is equal
- * up to rounding, so which twin is picked may differ: the vectors are what
- * must not.) Where the same vertex is picked, its position is the moved
- * one. */
+ * few 1e-5 (measured: 4.4e-5 at one vertex of the hand, 1e-14 elsewhere).
+ * (Symmetric shapes have mirror-twin vertices whose HKS is equal up to
+ * rounding, so which twin is picked may differ: the vectors are what must
+ * not.) One exception: two vertices that are not twins can tie at the
+ * feature scale to rounding (on the hand, vertices 224 and 251 agree to
+ * 1e-15) while their vectors differ; which one becomes the feature is then
+ * rounding's choice, and the moved input may pick the other. Such a swap
+ * leaves one feature of each signature without its twin: at most two of
+ * the correspondences (one each way) may miss. Where the same vertex is
+ * picked, its position is the moved one. */
 START_TEST(invariant_to_rigid_motion_and_scale)
 {
     unsigned kind = (unsigned)_i;
@@ -108,12 +114,16 @@ START_TEST(invariant_to_rigid_motion_and_scale)
     phks_correspondence c[64];
     double score;
     ck_assert_int_eq(phks_match(a, b, c, 64, &count, &score), PHKS_OK);
+    size_t swapped = 0;
     for (size_t i = 0; i < count; i++) {
         const double *va = phks_signature_feature_vector(a, c[i].feature_a);
         double norm = 0;
         for (size_t s = 0; s < phks_signature_vector_length(a); s++)
             norm += fabs(va[s]);
-        ck_assert_double_le(c[i].distance, 1e-4 * norm);
+        if (c[i].distance > 1e-4 * norm) {
+            swapped++;
+            continue;
+        }
         if (phks_signature_feature_vertex(a, c[i].feature_a) !=
             phks_signature_feature_vertex(b, c[i].feature_b))
             continue;
@@ -127,6 +137,7 @@ START_TEST(invariant_to_rigid_motion_and_scale)
                                     1e-9 * 37.5);
         }
     }
+    ck_assert_uint_le(swapped, 2);
     phks_signature_free(a);
     phks_signature_free(b);
     phks_mesh_free(m);
@@ -265,15 +276,13 @@ START_TEST(features_are_the_persistent_maxima)
 }
 END_TEST
 
-/* The number of OpenBLAS threads changes the numbers in the last bits
- * only: OpenBLAS's threaded LAPACK routines inside the eigen-solvers
- * (dsyevr, dsyev, the QR) round differently with another thread count
- * (the unit box uses no BLAS: test_operator checks it is bit-identical).
- * Eigenvalues equal to 1e-12 of the largest and HKS at every vertex to
- * 1e-9 (measured: 2e-15 and 6e-15), with the dense solver and with block
- * Lanczos. (A signature may still pick another feature vertex where two
- * vertices' HKS tie to rounding: on this hand, vertices 251 and 224.) */
-START_TEST(blas_threads_change_only_rounding)
+/* The number of OpenBLAS threads changes no bit: the eigen-solvers'
+ * reductions whose OpenBLAS routines split sums over threads are the
+ * library's own, in one order (lib/eigen/householder.c). Eigenvalues and
+ * HKS at every vertex bit-identical under 1 and 2 threads, with the dense
+ * solver and with block Lanczos, and so the signature's blob. (The test
+ * program is the host here: setting OpenBLAS's threads is its call.) */
+START_TEST(blas_threads_change_no_bit)
 {
     phks_mesh *m = creature_mesh(SHAPE_HAND, 2);
     size_t n = phks_mesh_vertex_count(m);
@@ -294,19 +303,15 @@ START_TEST(blas_threads_change_only_rounding)
         ck_assert_uint_eq(phks_spectrum_count(spec[1]), k);
         const double *l0 = phks_spectrum_eigenvalues(spec[0]);
         const double *l1 = phks_spectrum_eigenvalues(spec[1]);
-        for (size_t i = 0; i < k; i++)
-            ck_assert_msg(fabs(l0[i] - l1[i]) <= 1e-12 * l0[k - 1],
-                          "solver %d: eigenvalue %zu: %.17g and %.17g", solver,
-                          i, l0[i], l1[i]);
+        ck_assert_msg(memcmp(l0, l1, k * sizeof *l0) == 0,
+                      "solver %d: the eigenvalues differ", solver);
         const double times[3] = {5, 100, 1000};
         for (int s = 0; s < 3; s++) {
             for (int t = 0; t < 2; t++)
                 ck_assert_int_eq(phks_spectrum_hks(spec[t], times[s] * o.tau, h[t]),
                                  PHKS_OK);
-            for (size_t v = 0; v < n; v++)
-                ck_assert_msg(fabs(h[0][v] - h[1][v]) <= 1e-9 * h[0][v],
-                              "solver %d, %g tau, vertex %zu: %.17g and %.17g",
-                              solver, times[s], v, h[0][v], h[1][v]);
+            ck_assert_msg(memcmp(h[0], h[1], n * sizeof *h[0]) == 0,
+                          "solver %d, %g tau: HKS differs", solver, times[s]);
         }
         phks_spectrum_free(spec[0]);
         phks_spectrum_free(spec[1]);
@@ -372,7 +377,7 @@ int main(void)
     tcase_add_test(c, repeatable_and_equal_through_the_spectrum);
     tcase_add_test(c, features_are_the_persistent_maxima);
     tcase_add_test(c, progress_reaches_every_stage_and_cancels);
-    tcase_add_test(c, blas_threads_change_only_rounding);
+    tcase_add_test(c, blas_threads_change_no_bit);
     suite_add_tcase(s, c);
     return run_suite(s);
 }
