@@ -41,8 +41,9 @@
  * along the scales, which reorders each sum); four query rows per pass
  * share each load of the entry and give eight independent chains of
  * additions. Other compilers get plain loops. */
-/* PHKS_SCAN_PORTABLE forces the plain loops, to test them with GCC. */
-#if (defined(__GNUC__) || defined(__clang__)) && !defined(PHKS_SCAN_PORTABLE)
+/* PHKS_NO_SIMD forces the plain loops, to test them with GCC
+ * (core/simd.h). */
+#if (defined(__GNUC__) || defined(__clang__)) && !defined(PHKS_NO_SIMD)
 /* Inlined into each clone of its callers, so each gets its instructions. */
 #define INLINE inline __attribute__((always_inline))
 #define VW 4 /* doubles per vector: one AVX register, two SSE2 ones */
@@ -175,9 +176,11 @@ static INLINE double phks__nearest_block(const double *q, size_t nq, size_t L,
  * give identical results (no multiplications, so no fused operations).
  * Not under ThreadSanitizer: the dynamic loader runs the picker (an ifunc
  * resolver) before the sanitizer's runtime is ready, and its instrumented
- * entry crashes every program linked with the library at start-up. */
+ * entry crashes every program linked with the library at start-up. Not
+ * with PHKS_NO_SIMD, whose plain loops are to run as themselves. */
 #if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && \
-    defined(__linux__) && !defined(__SANITIZE_THREAD__)
+    defined(__linux__) && !defined(__SANITIZE_THREAD__) &&              \
+    !defined(PHKS_NO_SIMD)
 #define PHKS__NEAREST_CLONES __attribute__((target_clones("avx2", "default")))
 #else
 #define PHKS__NEAREST_CLONES

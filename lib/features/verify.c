@@ -27,14 +27,33 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* SSE2 for the two loops that run longest (below); PHKS_NO_SIMD builds
- * the portable loops alone, to test them (core/simd.h). */
+/* SSE2 for the two loops that run longest (disagreements and
+ * multiply_block); PHKS_NO_SIMD builds the portable loops alone
+ * (core/simd.h, meson's -Dsimd=disabled). */
 #if defined(__SSE2__) && !defined(PHKS_NO_SIMD)
 #include <emmintrin.h>
 #define VERIFY_SSE2 1
 #else
 #define VERIFY_SSE2 0
 #endif
+
+typedef struct proposal {
+    uint32_t i, j;
+    double affinity, root; /* and its square root */
+} proposal;
+
+/* ---- The scoring rule
+ *
+ * Everything a score depends on is written once, in this section: the
+ * constants that tune it, a proposal's affinity, the agreement of a pair
+ * of proposals and their matrix entry, the rule that admits a proposal
+ * into the verified set, the set's affinity, its bound and the score.
+ * The rest of the file finds the proposals, the matrix and the set that
+ * these ask for, and calls them; its SIMD and portable loops must give
+ * the same bits (-Dsimd=disabled builds the portable ones, and
+ * tests/test_score_bits.c holds both builds to the same scores). */
+
+/* What the scores depend on. */
 
 /* Proposals per query feature: about as many of b's 35 points as 3 of
  * its 15 features. */
@@ -50,24 +69,150 @@
 /* A member of the verified set agrees, on average, at least this well
  * with those taken before it. */
 #define AGREEMENT 0.5
-/* Power iterations: the leading eigenvector of a non-negative matrix of
- * a few dozen rows settles well within them. */
-#define ITERATIONS 10
-/* Rows of the matrix the power iteration sums side by side, in
- * registers; its columns are padded to a multiple of them. */
-#define BLOCK 16
-/* Relative error allowed for in comparing a bound with a set's affinity,
- * both sums of at most a few hundred terms in [0, 1]: far above their
- * rounding, far below any difference that matters. */
-#define BOUND_MARGIN 1e-9
 /* Scales tried: 2^(k/4) for |k| <= SCALE_STEPS, an octave either way in
  * steps whose half (9%) is well inside DISTANCE_SIGMA. */
 #define SCALE_STEPS 4
+/* Power iterations, which decide the order the set is read in: the
+ * leading eigenvector of a non-negative matrix of a few dozen rows
+ * settles well within them. */
+#define ITERATIONS 10
 
-typedef struct proposal {
-    uint32_t i, j;
-    double affinity, root; /* and its square root */
-} proposal;
+/* What only the speed depends on. */
+
+/* Rows of the matrix the power iteration sums side by side, in
+ * registers; its columns are padded to a multiple of them. Each row's
+ * sum still runs over the columns in order. */
+#define BLOCK 16
+/* Relative error allowed for in comparing a bound with a set's affinity,
+ * both sums of at most a few hundred terms in [0, 1]: far above their
+ * rounding, far below any difference that matters. A scale is passed
+ * over only when its set could not be the best. */
+#define BOUND_MARGIN 1e-9
+
+/* A proposal's own affinity, from the distance of its vectors over
+ * `length` time scales: 1 for equal vectors. */
+static double proposal_affinity(double distance, size_t length)
+{
+    return exp(-distance / (VECTOR_SIGMA * (double)length));
+}
+
+/* The disagreement of two distances below is written once, for a lane
+ * of either kind: a double, or SSE2's two (disagreements), on which GCC
+ * and Clang apply + - * / lane by lane, a scalar operand to every lane.
+ * LANE_OP picks the lane's form of the two operations that are not
+ * arithmetic; both forms compute the same thing, so both kinds of lane
+ * give the same bits. */
+static inline double larger(double a, double b)
+{
+    return a > b ? a : b;
+}
+
+/* Halving by multiplying by 0.5, as SSE2 does: the same bits as e / 2. */
+static inline double halved_if_positive(double e)
+{
+    return e > 0 ? e * 0.5 : e;
+}
+
+#if VERIFY_SSE2
+/* maxpd is a > b ? a : b, lane by lane. */
+static inline __m128d larger_sse2(__m128d a, __m128d b)
+{
+    return _mm_max_pd(a, b);
+}
+
+static inline __m128d halved_if_positive_sse2(__m128d e)
+{
+    __m128d positive = _mm_cmpgt_pd(e, _mm_setzero_pd());
+    return _mm_or_pd(_mm_and_pd(positive, e * 0.5),
+                     _mm_andnot_pd(positive, e));
+}
+
+#define LANE_OP(op, lane) _Generic((lane), __m128d: op##_sse2, default: op)
+#else
+#define LANE_OP(op, lane) op
+#endif
+
+/* How far two finite distances along the surfaces, a's ga and b's gb,
+ * disagree, in DISTANCE_SIGMA: their difference over the larger plus
+ * slack, the positional uncertainty of a point; a's excess counts half
+ * (see DISTANCE_SIGMA). The larger by comparison rather than fmax, a
+ * call: the two differ only in the sign of a zero, which adding slack >
+ * 0 takes away. */
+#define DISAGREEMENT(ga, gb, slack)                                         \
+    (LANE_OP(halved_if_positive, ga)(                                       \
+         ((ga) - (gb)) / (LANE_OP(larger, ga)(ga, gb) + (slack))) /         \
+     DISTANCE_SIGMA)
+
+static inline double disagreement(double ga, double gb, double slack)
+{
+    return DISAGREEMENT(ga, gb, slack);
+}
+
+/* How well two distances agree given their disagreement e, 1 at equality
+ * (see DISTANCE_SIGMA); 0 beyond 3 sigma, where exp(-9) is nothing to a
+ * set's affinity. */
+static inline double agreement(double ga, double gb, double e)
+{
+    if (!isfinite(ga) || !isfinite(gb))
+        return 0;
+    return fabs(e) < 3 ? exp(-e * e) : 0;
+}
+
+/* The matrix entry of proposals x and y that share no point, given how
+ * well their distances agree: at most the geometric mean of their own
+ * affinities. The product runs in the order of the arguments. */
+static inline double pair_weight(double agreed, const proposal *x,
+                                 const proposal *y)
+{
+    return agreed * x->root * y->root;
+}
+
+/* Whether proposal x, whose pair weights with the `taken` members of the
+ * set sum to `with`, agrees too little with them to join: less, on
+ * average, than AGREEMENT times what it would with the first member
+ * were they to agree fully. */
+static bool agrees_too_little(double with, size_t taken, const proposal *x,
+                              const proposal *first)
+{
+    return taken && with / (double)taken < AGREEMENT * x->root * first->root;
+}
+
+/* What proposal x adds to the affinity of the set it joins: its own
+ * affinity and its pairs' with the members, counted both ways as the
+ * symmetric matrix holds them. */
+static double member_affinity(const proposal *x, double with)
+{
+    return x->affinity + 2 * with;
+}
+
+/* At most the affinity of any set the proposals can give: a set takes
+ * one proposal per query feature and pairs that agree at most fully, so
+ * its sum of member_affinity, u + 2 w sqrt(u u'), is at most the square
+ * of the sum, over the features, of their largest sqrt(u). The proposals
+ * of a feature are consecutive. */
+static double affinity_bound(const proposal *p, size_t count)
+{
+    double sum = 0;
+    for (size_t k = 0; k < count;) {
+        double most = 0;
+        size_t i = p[k].i;
+        for (; k < count && p[k].i == i; k++)
+            most = fmax(most, p[k].root);
+        sum += most;
+    }
+    return sum * sum;
+}
+
+/* The score of a query of `features` features whose best verified set
+ * has affinity `best`: the nearest-L1 score times 1 - Q, Q the share of
+ * the most a query of its size can reach (its bound with every u = 1). */
+static double verified_score(double nearest, double best, size_t features)
+{
+    double n = (double)features;
+    return nearest * (1 - fmin(best / (n * n), 1));
+}
+
+/* ---- Finding the verified set */
 
 /* A pair of proposals p < q. */
 typedef struct pair_ref {
@@ -84,7 +229,6 @@ struct phks__verifier {
     const phks_signature *a, *b;
     size_t na, nb;    /* a's features, b's points                         */
     size_t length, steps;
-    double sigma;     /* vector distance scale: VECTOR_SIGMA * length     */
     double slack;     /* positional uncertainty of a feature point        */
     double log_times[PHKS_MAX_SCALES]; /* log of b's time scales          */
     double *va, *vb;  /* vectors as compared (logarithms); b's by time
@@ -256,47 +400,24 @@ static void propose(phks__verifier *c)
         }
         for (size_t m = 0; m < have; m++) {
             uint32_t j = mine[m].j;
-            double u = exp(-row[j] / c->sigma);
+            double u = proposal_affinity(row[j], c->length);
             mine[m] = (proposal){(uint32_t)i, j, u, sqrt(u)};
         }
         c->count += have;
     }
 }
 
-/* How far two finite distances disagree, in DISTANCE_SIGMA. The larger
- * one by comparison rather than fmax, a call: the two differ only in the
- * sign of a zero, which adding slack > 0 takes away. */
-static inline double disagreement(double ga, double gb, double slack)
-{
-    double e = (ga - gb) / ((ga > gb ? ga : gb) + slack);
-    e = e > 0 ? e / 2 : e;
-    return e / DISTANCE_SIGMA;
-}
-
-/* How well two distances agree given their disagreement e, 1 at equality
- * (see DISTANCE_SIGMA); 0 beyond 3 sigma, where exp(-9) is nothing to a
- * set's affinity. */
-static inline double agreement_of(double ga, double gb, double e)
-{
-    if (!isfinite(ga) || !isfinite(gb))
-        return 0;
-    return fabs(e) < 3 ? exp(-e * e) : 0;
-}
-
-static double agreement(const phks__verifier *c, double ga, double gb)
-{
-    return agreement_of(ga, gb, disagreement(ga, gb, c->slack));
-}
-
 /* The matrix entry of two proposals that share no point, at c->scale,
- * for select_set: the matrix holds the product of the roots in the order
- * of the proposals' indices, and the set's members are few. */
-static double pair_weight(const phks__verifier *c, const proposal *x,
-                          const proposal *y)
+ * for select_set: the set's members are few, and the matrix holds the
+ * product of the roots in the order of the proposals' indices, where
+ * select_set takes the new proposal first. */
+static double set_pair_weight(const phks__verifier *c, const proposal *x,
+                              const proposal *y)
 {
-    return agreement(c, c->ga[x->i * c->na + y->i],
-                     c->gb_scaled[x->j * c->nb + y->j]) *
-           x->root * y->root;
+    double ga = c->ga[x->i * c->na + y->i];
+    double gb = c->gb_scaled[x->j * c->nb + y->j];
+    return pair_weight(agreement(ga, gb, disagreement(ga, gb, c->slack)), x,
+                       y);
 }
 
 /* The pairs of proposals that share no point, with both distances:
@@ -325,25 +446,17 @@ static void candidate_pairs(phks__verifier *c)
 }
 
 /* disagreement() of each pair, two at a time where SSE2 is (every
- * x86-64): the same operations lane by lane, so the same bits (maxpd is
- * a > b ? a : b, halving is multiplying by 0.5). The compiler does not
- * vectorise the loop itself while floating-point traps must stay as
- * written. */
+ * x86-64): the same DISAGREEMENT on lanes of two, so the same bits. The
+ * compiler does not vectorise the loop itself while floating-point traps
+ * must stay as written. */
 static void disagreements(const double *ga, const double *gb, size_t n,
                           double slack, double *e)
 {
     size_t k = 0;
 #if VERIFY_SSE2
-    const __m128d s = _mm_set1_pd(slack), zero = _mm_setzero_pd(),
-                  half = _mm_set1_pd(0.5), sigma = _mm_set1_pd(DISTANCE_SIGMA);
     for (; k + 2 <= n; k += 2) {
         __m128d a = _mm_loadu_pd(ga + k), b = _mm_loadu_pd(gb + k);
-        __m128d x = _mm_div_pd(_mm_sub_pd(a, b),
-                               _mm_add_pd(_mm_max_pd(a, b), s));
-        __m128d positive = _mm_cmpgt_pd(x, zero);
-        x = _mm_or_pd(_mm_and_pd(positive, _mm_mul_pd(x, half)),
-                      _mm_andnot_pd(positive, x));
-        _mm_storeu_pd(e + k, _mm_div_pd(x, sigma));
+        _mm_storeu_pd(e + k, DISAGREEMENT(a, b, slack));
     }
 #endif
     for (; k < n; k++)
@@ -354,7 +467,7 @@ static void disagreements(const double *ga, const double *gb, size_t n,
  * of proposals agree somewhat, and the power iteration then runs down
  * whole rows), 0 where two proposals share a point or do not agree. The
  * entries are pair_weight's, computed in passes: the disagreements
- * first, in a loop of arithmetic alone, then the exponentials. */
+ * first, in a loop of arithmetic alone, then the agreements. */
 static void affinities(phks__verifier *c)
 {
     size_t n = c->count, m = c->stride = (n + BLOCK - 1) / BLOCK * BLOCK;
@@ -364,8 +477,9 @@ static void affinities(phks__verifier *c)
                   c->pair_e);
     for (size_t k = 0; k < c->pair_count; k++) {
         size_t p = c->pair[k].p, q = c->pair[k].q;
-        double w = agreement_of(c->pair_ga[k], c->pair_gb[k], c->pair_e[k]) *
-                   c->p[p].root * c->p[q].root;
+        double w = pair_weight(agreement(c->pair_ga[k], c->pair_gb[k],
+                                         c->pair_e[k]),
+                               c->p + p, c->p + q);
         if (w > 0)
             c->matrix[p * m + q] = c->matrix[q * m + p] = w;
     }
@@ -453,13 +567,12 @@ static double select_set(phks__verifier *c, uint32_t *pair_of)
             const proposal *y = c->p + c->set[k];
             clash = x->i == y->i || x->j == y->j;
             if (!clash)
-                with += pair_weight(c, x, y);
+                with += set_pair_weight(c, x, y);
         }
-        if (clash || (taken && with / (double)taken <
-                                   AGREEMENT * x->root * c->p[c->set[0]].root))
+        if (clash || agrees_too_little(with, taken, x, c->p + c->set[0]))
             continue;
         c->set[taken++] = best;
-        total += x->affinity + 2 * with;
+        total += member_affinity(x, with);
         if (pair_of)
             pair_of[x->i] = x->j;
     }
@@ -480,23 +593,6 @@ static void propose_at(phks__verifier *c, double scale)
         c->gb_scaled[k] = scale * c->gb[k];
     distances(c, vb);
     propose(c);
-}
-
-/* At most the affinity of any set the proposals can give: a set takes
- * one proposal per query feature and pairs that agree at most fully, so
- * its sum of u + 2 w sqrt(u u') is at most the square of the sum, over
- * the features, of their largest sqrt(u). */
-static double affinity_bound(const phks__verifier *c)
-{
-    double sum = 0;
-    for (size_t p = 0; p < c->count;) {
-        double most = 0;
-        size_t i = c->p[p].i;
-        for (; p < c->count && c->p[p].i == i; p++)
-            most = fmax(most, c->p[p].root);
-        sum += most;
-    }
-    return sum * sum;
 }
 
 /* The verified set's affinity at the scale proposed. */
@@ -522,7 +618,7 @@ static double best_affinity(phks__verifier *c, uint32_t *pair_of)
     for (int t = 0; t <= 2 * SCALE_STEPS; t++) {
         int k = (t + 1) / 2 * (t % 2 ? -1 : 1);
         propose_at(c, exp2(k / 4.0));
-        if (best >= 0 && affinity_bound(c) * (1 + BOUND_MARGIN) < best)
+        if (best >= 0 && affinity_bound(c->p, c->count) * (1 + BOUND_MARGIN) < best)
             continue;
         double e = verified_set(c, c->trial);
         if (e > best || (e == best && k < best_k)) {
@@ -602,7 +698,6 @@ phks_status phks__verifier_new(const phks_signature *a, size_t points,
     c->na = a->count;
     c->length = a->length;
     c->steps = c->length > 1 ? c->length - 1 : 1;
-    c->sigma = VECTOR_SIGMA * (double)c->length;
     c->slack = sqrt(4 * a->options.feature_scale * a->options.tau);
     if (!allocate(c, points)) {
         phks__verifier_free(c);
@@ -631,9 +726,7 @@ void phks__verifier_run(phks__verifier *c, const phks_signature *b,
     boundary_weights(b, c->nb, c->wb);
     step_weights(c);
     square_distances(b, c->nb, c->gb);
-    double best = best_affinity(c, pair_of);
-    double n = (double)c->na;
-    *score = nearest * (1 - fmin(best / (n * n), 1));
+    *score = verified_score(nearest, best_affinity(c, pair_of), c->na);
 }
 
 phks_status phks__verify(const phks_signature *a, const phks_signature *b,
