@@ -170,11 +170,11 @@ static inline double pair_weight(double agreed, const proposal *x,
 /* Whether proposal x, whose pair weights with the `taken` members of the
  * set sum to `with`, agrees too little with them to join: less, on
  * average, than AGREEMENT times what it would with the first member
- * were they to agree fully. */
+ * were they to agree fully. taken is at least 1. */
 static bool agrees_too_little(double with, size_t taken, const proposal *x,
                               const proposal *first)
 {
-    return taken && with / (double)taken < AGREEMENT * x->root * first->root;
+    return with / (double)taken < AGREEMENT * x->root * first->root;
 }
 
 /* What proposal x adds to the affinity of the set it joins: its own
@@ -569,7 +569,8 @@ static double select_set(phks__verifier *c, uint32_t *pair_of)
             if (!clash)
                 with += set_pair_weight(c, x, y);
         }
-        if (clash || agrees_too_little(with, taken, x, c->p + c->set[0]))
+        if (clash || (taken && agrees_too_little(with, taken, x,
+                                                    c->p + c->set[0])))
             continue;
         c->set[taken++] = best;
         total += member_affinity(x, with);
