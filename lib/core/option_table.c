@@ -9,7 +9,9 @@
 #include "core/core.h"
 
 #include <errno.h>
+#include <locale.h>
 #include <math.h>
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -160,6 +162,36 @@ static const void *const_field_of(const phks_options *o,
     return (const char *)o + row->offset;
 }
 
+/* ---- numbers in the C locale's words
+ *
+ * strtod and printf follow the host's LC_NUMERIC: under a decimal-comma
+ * locale "2.5" would not parse and 2.5 would print "2,5", which the
+ * scales' commas then split in two. A user's text means the same
+ * whatever locale the host chose, so numbers are read and written with
+ * the C locale's, on the calling thread only (uselocale), never changing
+ * the process's setting. */
+static locale_t c_numeric;
+static pthread_once_t c_numeric_once = PTHREAD_ONCE_INIT;
+
+static void make_c_numeric(void)
+{
+    c_numeric = newlocale(LC_NUMERIC_MASK, "C", (locale_t)0);
+}
+
+/* Switches the calling thread to the C locale's numbers; the locale to
+ * give back to restore_numeric ((locale_t)0: nothing was switched). */
+static locale_t use_c_numeric(void)
+{
+    pthread_once(&c_numeric_once, make_c_numeric);
+    return c_numeric ? uselocale(c_numeric) : (locale_t)0;
+}
+
+static void restore_numeric(locale_t previous)
+{
+    if (previous)
+        uselocale(previous);
+}
+
 /* ---- parsing a user's text */
 
 /* A finite double filling all of text. */
@@ -167,7 +199,9 @@ static bool parse_real(const char *text, double *out)
 {
     char *end;
     errno = 0;
+    locale_t previous = use_c_numeric();
     double x = strtod(text, &end);
+    restore_numeric(previous);
     if (end == text || *end || !isfinite(x))
         return false;
     *out = x;
@@ -315,11 +349,13 @@ phks_status phks_option_set(phks_options *options, uint32_t index,
 static int format_real(double x, char *text, size_t size)
 {
     char buf[32];
+    locale_t previous = use_c_numeric();
     for (int digits = 15; digits <= 17; digits++) {
         snprintf(buf, sizeof buf, "%.*g", digits, x);
         if (strtod(buf, NULL) == x)
             break;
     }
+    restore_numeric(previous);
     return snprintf(text, size, "%s", buf);
 }
 

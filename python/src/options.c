@@ -99,7 +99,13 @@ static int real_text(PyObject *value, char *text, size_t size)
     double d = PyFloat_AsDouble(value);
     if (d == -1 && PyErr_Occurred())
         return -1;
-    PyOS_snprintf(text, size, "%.17g", d);
+    /* repr's digits, with a '.' whatever the locale (PyOS_snprintf would
+     * follow LC_NUMERIC, and a decimal comma splits the scales). */
+    char *repr = PyOS_double_to_string(d, 'r', 0, 0, NULL);
+    if (!repr)
+        return -1;
+    PyOS_snprintf(text, size, "%s", repr);
+    PyMem_Free(repr);
     return 0;
 }
 
