@@ -426,7 +426,7 @@ assert sorted(r["vertex"] for r in d["regions"]) == sorted(int(i) + 5 for i in o
     < out || fail "segment --json of shifted.off: ids not in the file's numbering"
 
 # ---- db ---------------------------------------------------------------------
-# With -j 1 the ids follow the command line; with more workers, completion.
+# The ids follow the command line whatever -j.
 run "$phks" db add t.db a.off b.off --label blob -j 1; expect_rc 0 "db add"
 expect_out "^added 1 a.off$"; expect_out "2 added, 0 failed"
 run "$phks" db list t.db; expect_rc 0 "db list"
@@ -439,6 +439,18 @@ run "$phks" db add m.db --manifest set/MANIFEST.tsv -j 2; expect_rc 0 \
 expect_out "8 added"
 run "$phks" db list m.db; expect_rc 0 "db list of the manifest"
 expect_out "bar .* bar/3.off"; expect_out "star .* star/0.off"
+# Eight meshes on four workers, twice: the same ids for the same files, in
+# the order given (the workers finish in any order).
+for run_no in 1 2; do
+    run "$phks" db add "j4-$run_no.db" set/bar/* set/star/* -j 4; expect_rc 0 \
+        "db add -j 4, run $run_no"
+    "$phks" db list "j4-$run_no.db" --json > "j4-$run_no.json" ||
+        fail "db list --json of run $run_no"
+done
+cmp -s j4-1.json j4-2.json || fail "db add -j 4: the ids differ between runs"
+$py -c 'import json,sys; d=json.load(sys.stdin)
+assert [e["name"] for e in d] == sys.argv[1:], d' set/bar/* set/star/* \
+    < j4-1.json || fail "db add -j 4: the ids are not in the order given"
 run "$phks" db query t.db a.sig -k 2; expect_rc 0 "db query"
 expect_out "^ *1 *1 *0 *blob *a.off$"
 [ "$(wc -l < out)" -eq 3 ] || fail "db query -k 2: not 2 hits"

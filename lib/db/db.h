@@ -84,6 +84,7 @@ struct phks_db {
     pthread_mutex_t lock;
     pthread_rwlock_t cache_lock;
     bool lock_ready, cache_lock_ready;
+    double busy_since;   /* when the busy handler's wait began (db_open.c) */
     sqlite3_stmt *version; /* PRAGMA data_version */
     bool has_options;    /* the options are set once and never change */
     phks_options options;

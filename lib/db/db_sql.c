@@ -10,6 +10,7 @@
 #include "db/db.h"
 
 #include <stdio.h>
+#include <string.h>
 
 /* ---- SQLite errors */
 
@@ -34,11 +35,29 @@ phks_status phks__db_sql_status(int rc)
     }
 }
 
+/* The system's reason behind an I/O error, or 0: SQLite says "disk I/O
+ * error" alike for a full disk (the WAL's shared-memory file cannot grow),
+ * a missing permission or a failing device. */
+static int system_errno(const phks_db *db, int rc)
+{
+    int primary = rc & 0xff;
+    bool io = primary == SQLITE_IOERR || primary == SQLITE_CANTOPEN ||
+              primary == SQLITE_FULL;
+    return io && db->conn ? sqlite3_system_errno(db->conn) : 0;
+}
+
 phks_status phks__db_sql_fail(const phks_db *db, int rc, const char *what)
 {
     const char *detail = db->conn ? sqlite3_errmsg(db->conn) : sqlite3_errstr(rc);
-    return phks__fail(phks__db_sql_status(rc), "%s: %s: %s", db->path, what,
-                      detail);
+    int os = system_errno(db, rc);
+    char reason[160] = "";
+    /* strerror_r: handles are used from many threads. */
+    if (os && strerror_r(os, reason + 2, sizeof reason - 3) == 0) {
+        memcpy(reason, " (", 2);
+        strcat(reason, ")");
+    }
+    return phks__fail(phks__db_sql_status(rc), "%s: %s: %s%s", db->path, what,
+                      detail, reason);
 }
 
 /* ---- statements */

@@ -1,9 +1,10 @@
 /*
  * cli_db_add.c - `phks db add`: signatures of many files (meshes, .sig
  * blobs, or the mesh and blob files under directories) computed on worker
- * threads and added to a database one by one as they complete, so a crash
- * loses only the files in flight. A signature whose encoded blob equals an
- * entry's is skipped unless --allow-duplicates.
+ * threads and added to a database one by one in the order given, so a crash
+ * loses only the files in flight and the ids are the same whatever -j. A
+ * signature whose encoded blob equals an entry's is skipped unless
+ * --allow-duplicates.
  */
 #include "cli.h"
 #include "common/cli_common.h"
@@ -14,6 +15,7 @@
 #include <inttypes.h>
 #include <pthread.h>
 #include <stdatomic.h>
+#include <stdbool.h>
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
@@ -40,6 +42,14 @@ typedef struct seen {
     size_t cap, count;
 } seen;
 
+/* A file computed, waiting for its turn to be added. */
+typedef struct slot {
+    phks_signature *sig;        /* NULL: it failed (and said so) */
+    unsigned char *blob;
+    size_t size;
+    bool ready;
+} slot;
+
 typedef struct add_job {
     phks_db *db;
     phks_options options;       /* threads = 1: the workers share the CPUs */
@@ -49,8 +59,16 @@ typedef struct add_job {
     char **owned;               /* strings made here, or NULL */
     size_t owned_count;
     int allow_duplicates;
-    pthread_mutex_t lock;       /* seen, and the check-then-add */
+    pthread_mutex_t lock;       /* seen, the window, and the adds */
     seen seen;
+    /* The reorder window: file i waits in slot i % window_size until files
+     * 0..i-1 are added, so ids follow the input, not the workers' finishing
+     * order. A worker takes file i only once i < next + window_size, which
+     * bounds the signatures held; the pool hands files out in order, so the
+     * file at next is always being computed and the window always drains. */
+    slot *window;
+    size_t window_size, next;
+    pthread_cond_t turn;        /* next moved */
     atomic_size_t added, failed, skipped;
 } add_job;
 
@@ -151,39 +169,66 @@ static phks_signature *signature_of(add_job *job, size_t i)
     return sig;
 }
 
-static void add_one(void *ctx, size_t i)
+/* Adds the file at next from its slot, and moves next on; with lock
+ * held. */
+static void add_in_turn(add_job *job)
 {
-    add_job *job = ctx;
-    phks_signature *sig = signature_of(job, i);
-    unsigned char *blob = NULL;
-    size_t size = 0;
+    size_t i = job->next++;
+    slot *s = &job->window[i % job->window_size];
     int64_t id = 0, twin = 0;
-    phks_status st = sig ? cli_encode(sig, &blob, &size) : PHKS_ERROR_IO;
-    if (sig && st == PHKS_OK) {
-        pthread_mutex_lock(&job->lock);
-        if (!job->allow_duplicates)
-            twin = seen_find(job, blob, size);
-        if (!twin)
-            st = phks_db_add(job->db, job->names[i], job->labels[i], sig, &id);
-        if (!twin && st == PHKS_OK &&
-            seen_put(&job->seen, cli_hash_bytes(0, blob, size), id) != 0)
-            st = PHKS_ERROR_OUT_OF_MEMORY;
-        if (st != PHKS_OK)
-            cli_say_db_fail(job->db, job->paths[i], sig, st);
-        pthread_mutex_unlock(&job->lock);
-    }
+    phks_status st = PHKS_OK;
+    if (s->sig && !job->allow_duplicates)
+        twin = seen_find(job, s->blob, s->size);
+    if (s->sig && !twin)
+        st = phks_db_add(job->db, job->names[i], job->labels[i], s->sig, &id);
+    if (s->sig && !twin && st == PHKS_OK &&
+        seen_put(&job->seen, cli_hash_bytes(0, s->blob, s->size), id) != 0)
+        st = PHKS_ERROR_OUT_OF_MEMORY;
+    if (s->sig && st != PHKS_OK)
+        cli_say_db_fail(job->db, job->paths[i], s->sig, st);
     if (twin) {
         cli_say(stdout, "skipped %s: the same signature as entry %" PRId64
                 "\n", job->names[i], twin);
         atomic_fetch_add(&job->skipped, 1);
-    } else if (sig && st == PHKS_OK) {
+    } else if (s->sig && st == PHKS_OK) {
         cli_say(stdout, "added %" PRId64 " %s\n", id, job->names[i]);
         atomic_fetch_add(&job->added, 1);
     } else
         atomic_fetch_add(&job->failed, 1);
-    free(blob);
-    phks_signature_free(sig);
+    free(s->blob);
+    phks_signature_free(s->sig);
+    *s = (slot){0};
     cli_progress_step();
+}
+
+/* File i's signature and its encoding, or a slot with no signature. */
+static slot computed(add_job *job, size_t i)
+{
+    slot s = {signature_of(job, i), NULL, 0, true};
+    phks_status st = s.sig ? cli_encode(s.sig, &s.blob, &s.size) : PHKS_OK;
+    if (st != PHKS_OK) {
+        cli_say_fail(job->paths[i], st);
+        phks_signature_free(s.sig);
+        s.sig = NULL;
+    }
+    return s;
+}
+
+static void add_one(void *ctx, size_t i)
+{
+    add_job *job = ctx;
+    pthread_mutex_lock(&job->lock);
+    while (i >= job->next + job->window_size)
+        pthread_cond_wait(&job->turn, &job->lock);
+    pthread_mutex_unlock(&job->lock);
+    slot s = computed(job, i);
+    pthread_mutex_lock(&job->lock);
+    job->window[i % job->window_size] = s;
+    /* Whoever completes the run of ready files adds them. */
+    while (job->window[job->next % job->window_size].ready)
+        add_in_turn(job);
+    pthread_cond_broadcast(&job->turn);
+    pthread_mutex_unlock(&job->lock);
 }
 
 /* ---- the work list ---------------------------------------------------------- */
@@ -331,10 +376,18 @@ static int run(add_job *job, const char *db_path, unsigned workers)
         phks_db_close(job->db);
         return cli_fail(db_path, st);
     }
+    /* Two slots a worker: one computing, one waiting for its turn. */
+    job->window_size = 2 * (size_t)workers;
+    job->window = calloc(job->window_size, sizeof *job->window);
+    if (!job->window) {
+        phks_db_close(job->db);
+        return cli_error("db add", "out of memory");
+    }
     cli_blas_one_thread();
     cli_progress_start(job->count, "files");
     cli_pool_run(job->count, workers, add_one, job);
     cli_progress_end();
+    free(job->window);
     phks_db_close(job->db);
     size_t failed = atomic_load(&job->failed);
     size_t skipped = atomic_load(&job->skipped);
@@ -364,6 +417,7 @@ int cli_db_add(int argc, char **argv, const phks_options *options)
         return cli_usage(usage);
     add_job job = {.options = *options, .allow_duplicates = allow};
     pthread_mutex_init(&job.lock, NULL);
+    pthread_cond_init(&job.turn, NULL);
     job.options.threads = 1;
     cli_row *rows = NULL;
     size_t nrows = 0;
@@ -383,6 +437,7 @@ int cli_db_add(int argc, char **argv, const phks_options *options)
     free(job.seen.hash);
     free(job.seen.id);
     pthread_mutex_destroy(&job.lock);
+    pthread_cond_destroy(&job.turn);
     cli_manifest_free(rows, nrows);
     return rc;
 }
