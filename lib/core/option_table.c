@@ -12,6 +12,7 @@
 #include <locale.h>
 #include <math.h>
 #include <pthread.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -293,20 +294,29 @@ static bool parse_value(const char *text, const struct option_row *row,
     }
 }
 
-/* "one of a, b, c" for an enum's message. */
+/* Appends printf-style text at out + *used (out has size bytes), cut to
+ * fit; *used counts what the whole text needs, as snprintf's result does. */
+static void append(char *out, size_t size, size_t *used, const char *fmt,
+                   ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    int n = vsnprintf(out + (*used < size ? *used : size),
+                      *used < size ? size - *used : 0, fmt, ap);
+    va_end(ap);
+    if (n > 0)
+        *used += (size_t)n;
+}
+
+/* "a, b, c" for an enum's message. */
 static void list_values(const struct option_row *row, phks_spelling spelling,
                         char *out, size_t size)
 {
     const char *const *names = (*row->values)[spelling];
     size_t used = 0;
     out[0] = '\0';
-    for (int v = 0; names[v] && used < size; v++) {
-        int n = snprintf(out + used, size - used, "%s%s", v ? ", " : "",
-                         names[v]);
-        if (n < 0)
-            return;
-        used += (size_t)n;
-    }
+    for (int v = 0; names[v]; v++)
+        append(out, size, &used, "%s%s", v ? ", " : "", names[v]);
 }
 
 phks_status phks_option_set(phks_options *options, uint32_t index,
@@ -386,16 +396,13 @@ static int format_value(const phks_options *o, const struct option_row *row,
         size_t used = 0;
         uint32_t n = o->scale_count < PHKS_MAX_SCALES ? o->scale_count
                                                       : PHKS_MAX_SCALES;
-        for (uint32_t s = 0; s < n; s++) {
-            if (s)
-                used += (size_t)snprintf(text + (used < size ? used : size),
-                                         used < size ? size - used : 0, ",");
-            used += (size_t)format_real(o->scales[s],
-                                        text + (used < size ? used : size),
-                                        used < size ? size - used : 0);
-        }
-        if (n == 0 && size)
+        if (size)
             text[0] = '\0';
+        for (uint32_t s = 0; s < n; s++) {
+            char digits[32];
+            format_real(o->scales[s], digits, sizeof digits);
+            append(text, size, &used, "%s%s", s ? "," : "", digits);
+        }
         return (int)used;
     }
     }
