@@ -503,6 +503,25 @@ PHKS_API phks_status phks_mesh_load(const char *path, phks_mesh **mesh);
 PHKS_API phks_status phks_mesh_load_memory(const void *data, size_t size,
                                            phks_format format,
                                            phks_mesh **mesh);
+/* Same as phks_mesh_load_memory within limits, for hosts that load meshes
+ * from others (a database server, a web service), so that a mesh too large
+ * for the host is refused before it takes the memory and the time its
+ * signature would. max_bytes bounds the data's size after gzip inflation
+ * (inflation stops at the limit); max_vertices bounds the vertices the file
+ * lists (STL: its distinct corners), checked once it is read and before it
+ * is cleaned. 0 means no limit (gzip still stops at 2 GiB). While reading,
+ * the library holds the inflated data and arrays of about three times its
+ * size (the densest vertex lines), so at most about four times max_bytes;
+ * a signature's memory and time then grow with the vertex count
+ * (docs/benchmarks.md: about 600 MB and 30 s for 1.6 million).
+ * Errors: those of phks_mesh_load_memory, and PHKS_ERROR_TOO_LARGE with a
+ * message naming the limit passed. Thread-safe. */
+PHKS_API phks_status phks_mesh_load_memory_limited(const void *data,
+                                                   size_t size,
+                                                   phks_format format,
+                                                   size_t max_bytes,
+                                                   size_t max_vertices,
+                                                   phks_mesh **mesh);
 PHKS_API void phks_mesh_free(phks_mesh *mesh);
 
 /* Counts and arrays of the cleaned mesh. On a NULL mesh the counts are 0

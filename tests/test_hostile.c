@@ -784,6 +784,114 @@ START_TEST(signature_count_lies)
 }
 END_TEST
 
+/* ---------------------------------------------------------------- limits */
+
+/* A strip of `n` vertices and n - 2 triangles along x, as OFF text. */
+static bytes strip_off(size_t n)
+{
+    bytes b = {0};
+    char line[96];
+    snprintf(line, sizeof line, "OFF\n%zu %zu 0\n", n, n - 2);
+    put_text(&b, line);
+    for (size_t i = 0; i < n; i++) {
+        snprintf(line, sizeof line, "%zu %d 0\n", i / 2, (int)(i % 2));
+        put_text(&b, line);
+    }
+    for (size_t i = 0; i + 2 < n; i++) {
+        snprintf(line, sizeof line, "3 %zu %zu %zu\n", i, i + 1, i + 2);
+        put_text(&b, line);
+    }
+    return b;
+}
+
+static phks_status load_limited(const bytes *b, size_t max_bytes,
+                                size_t max_vertices, phks_mesh **mesh)
+{
+    *mesh = (phks_mesh *)b; /* must be overwritten */
+    phks_status st = phks_mesh_load_memory_limited(
+        b->p, b->n, PHKS_FORMAT_AUTO, max_bytes, max_vertices, mesh);
+    if (st != PHKS_OK)
+        ck_assert_ptr_null(*mesh);
+    return st;
+}
+
+static void expect_limited_fail(const bytes *b, size_t max_bytes,
+                                size_t max_vertices, const char *needle)
+{
+    phks_mesh *mesh;
+    ck_assert_int_eq(load_limited(b, max_bytes, max_vertices, &mesh),
+                     PHKS_ERROR_TOO_LARGE);
+    const char *m = phks_last_error_message();
+    ck_assert_msg(strstr(m, needle) != NULL, "message \"%s\" lacks \"%s\"", m,
+                  needle);
+}
+
+/* Exactly at each limit the mesh loads; one past it, it is refused with a
+ * message giving the limit, plain and gzipped. */
+START_TEST(load_limits_exact)
+{
+    const size_t n = 500;
+    bytes off = strip_off(n);
+    bytes gz = gzip_of(off.p, off.n, 6);
+    const bytes *forms[] = {&off, &gz};
+    char needle[96];
+    for (int f = 0; f < 2; f++) {
+        phks_mesh *mesh;
+        ck_assert_int_eq(load_limited(forms[f], off.n, n, &mesh), PHKS_OK);
+        ck_assert_uint_eq(phks_mesh_vertex_count(mesh), n);
+        phks_mesh_free(mesh);
+        ck_assert_int_eq(load_limited(forms[f], 0, 0, &mesh), PHKS_OK);
+        phks_mesh_free(mesh);
+
+        snprintf(needle, sizeof needle,
+                 "the mesh has %zu vertices, more than the limit of %zu", n,
+                 n - 1);
+        expect_limited_fail(forms[f], 0, n - 1, needle);
+        snprintf(needle, sizeof needle, "more than %s%zu",
+                 f == 0 ? "the limit of " : "", off.n - 1);
+        expect_limited_fail(forms[f], off.n - 1, 0, needle);
+    }
+    free(off.p);
+    free(gz.p);
+}
+END_TEST
+
+/* Plain data over max_bytes is refused before the library allocates; gzip
+ * data stops inflating at the limit. */
+START_TEST(load_limits_hold_memory)
+{
+    const size_t limit = (size_t)1 << 20;
+    bytes plain = strip_off(200000);
+    ck_assert_uint_gt(plain.n, limit);
+    probe_start();
+    expect_limited_fail(&plain, limit, 0, "bytes of mesh data");
+    ck_assert_uint_eq(probe_stop(), 0);
+
+    bytes bomb = gzip_zeros((size_t)64 << 20);
+    meter_start();
+    expect_limited_fail(&bomb, limit, 0, "inflates to more than");
+    ck_assert_uint_le(meter_stop(), limit + 1 + GZIP_OVERHEAD);
+
+    /* Within max_bytes, the densest vertex lines ("v 0 0 0\n", 8 bytes
+     * for 24 of coordinates) are what reading holds most for: the peak
+     * stays within the four times max_bytes that phks.h promises. */
+    bytes dense = {0};
+    while (dense.n + 16 <= limit)
+        put_text(&dense, "v 0 0 0\n");
+    put_text(&dense, "f 1 2 3\n");
+    meter_start();
+    expect_limited_fail(&dense, limit, 1000, "vertices, more than");
+    size_t peak = meter_stop();
+    printf("load_limits_hold_memory: %zu bytes of vertex lines held at most "
+           "%zu bytes (%.2f times)\n",
+           dense.n, peak, (double)peak / (double)dense.n);
+    ck_assert_uint_le(peak, 4 * limit);
+    free(plain.p);
+    free(bomb.p);
+    free(dense.p);
+}
+END_TEST
+
 #else /* PHKS_GZIP_LIMIT */
 
 /* ------------------------------------------- the gzip cap, made small */
@@ -883,6 +991,11 @@ int main(void)
     tcase_add_test(codec, signature_bad_options_message);
     tcase_add_test(codec, signature_count_lies);
     suite_add_tcase(s, codec);
+
+    TCase *limits = tcase_create("limits");
+    tcase_add_test(limits, load_limits_exact);
+    tcase_add_test(limits, load_limits_hold_memory);
+    suite_add_tcase(s, limits);
 #else
     TCase *limit = tcase_create("gzip_limit");
     tcase_add_test(limit, gzip_limit);

@@ -1,6 +1,7 @@
 /*
- * mesh_load.c - phks_mesh_load and phks_mesh_load_memory: the reader layer
- * (io/) turns the bytes into arrays, mesh.c cleans them into a mesh.
+ * mesh_load.c - phks_mesh_load and phks_mesh_load_memory(_limited): the
+ * reader layer (io/) turns the bytes into arrays, mesh.c cleans them into
+ * a mesh.
  */
 #include "geometry/geometry.h"
 
@@ -30,6 +31,16 @@ phks_status phks_mesh_load(const char *path, phks_mesh **mesh)
 phks_status phks_mesh_load_memory(const void *data, size_t size,
                                   phks_format format, phks_mesh **mesh)
 {
+    return phks_mesh_load_memory_limited(data, size, format, 0, 0, mesh);
+}
+
+/* The vertex limit is checked on the reader's arrays, before cleaning:
+ * their size is bounded by the bytes, and cleaning (welding, edges) is the
+ * first step whose memory grows faster. */
+phks_status phks_mesh_load_memory_limited(const void *data, size_t size,
+                                          phks_format format, size_t max_bytes,
+                                          size_t max_vertices, phks_mesh **mesh)
+{
     if (mesh)
         *mesh = NULL;
     if (!data || !mesh)
@@ -40,6 +51,11 @@ phks_status phks_mesh_load_memory(const void *data, size_t size,
                          "phks_mesh_load_memory: unknown format %d",
                          (int)format);
     phks__raw_mesh raw = {0};
-    return build(phks__raw_mesh_read_memory(data, size, format, &raw), &raw,
-                 mesh);
+    phks_status st = phks__raw_mesh_read_memory(
+        data, size, format, max_bytes ? max_bytes : SIZE_MAX, &raw);
+    if (st == PHKS_OK && max_vertices && raw.vertex_count > max_vertices)
+        st = phks__fail(PHKS_ERROR_TOO_LARGE,
+                        "the mesh has %zu vertices, more than the limit of %zu",
+                        raw.vertex_count, max_vertices);
+    return build(st, &raw, mesh);
 }

@@ -29,9 +29,12 @@ phks_status phks__read_stl(const char *data, size_t size, phks__raw_mesh *raw);
 /* The whole file at path, or the size bytes at data, read into *raw by
  * the reader its name or content picks (format: phks_format; AUTO sniffs
  * the content), gzip inflated first. Errors as the readers' (the caller
- * adds the file name). */
+ * adds the file name). From memory, data of more than max_bytes (after
+ * inflating; SIZE_MAX: no limit but gzip's built-in one) is refused with
+ * PHKS_ERROR_TOO_LARGE before it is parsed. */
 phks_status phks__raw_mesh_read_file(const char *path, phks__raw_mesh *raw);
 phks_status phks__raw_mesh_read_memory(const void *data, size_t size,
-                                      phks_format format, phks__raw_mesh *raw);
+                                      phks_format format, size_t max_bytes,
+                                      phks__raw_mesh *raw);
 
 #endif /* PHKS_IO_H */

@@ -123,7 +123,8 @@ static void zlib_free(voidpf user, voidpf ptr)
 
 /* A first guess at the inflated size: the trailer's ISIZE (the size modulo
  * 2^32 of the last member), believed only as far as deflate could expand. */
-static size_t inflated_guess(const unsigned char *in, size_t size)
+static size_t inflated_guess(const unsigned char *in, size_t size,
+                             size_t limit)
 {
     size_t guess = 4 * size;
     if (size >= 18) {
@@ -131,9 +132,9 @@ static size_t inflated_guess(const unsigned char *in, size_t size)
         guess = (size_t)t[0] | (size_t)t[1] << 8 | (size_t)t[2] << 16 |
                 (size_t)t[3] << 24;
     }
-    size_t bound = size < PHKS_GZIP_LIMIT / DEFLATE_MAX_RATIO
+    size_t bound = size < limit / DEFLATE_MAX_RATIO
                        ? size * DEFLATE_MAX_RATIO + 64
-                       : PHKS_GZIP_LIMIT;
+                       : limit;
     if (guess > bound)
         guess = bound;
     return guess < 65536 ? 65536 : guess + 1;
@@ -147,28 +148,33 @@ static phks_status inflate_error(int ret, const z_stream *z, size_t offset)
                      offset, z->msg ? z->msg : "invalid compressed data");
 }
 
+static phks_status inflates_past(size_t limit)
+{
+    return phks__fail(PHKS_ERROR_TOO_LARGE,
+                      "gzip data inflates to more than %zu bytes", limit);
+}
+
 /* Runs inflate over every gzip member of in, into a buffer that grows by
  * doubling up to the limit plus one byte: reaching that byte means the
  * stream is too large. */
 static phks_status inflate_all(z_stream *z, const unsigned char *in,
-                               size_t size, char **out, size_t *out_size)
+                               size_t size, size_t limit, char **out,
+                               size_t *out_size)
 {
-    size_t cap = inflated_guess(in, size), len = 0, used = 0;
-    if (cap > PHKS_GZIP_LIMIT + 1)
-        cap = PHKS_GZIP_LIMIT + 1;
+    size_t cap = inflated_guess(in, size, limit), len = 0, used = 0;
+    if (cap > limit + 1)
+        cap = limit + 1;
     char *buf = phks__malloc(cap);
     if (!buf)
         return phks__fail_oom("gzip inflation");
     phks_status st = PHKS_OK;
     for (;;) {
         if (len == cap) {
-            if (cap > PHKS_GZIP_LIMIT) {
-                st = phks__fail(PHKS_ERROR_TOO_LARGE,
-                               "gzip data inflates to more than %zu bytes",
-                               (size_t)PHKS_GZIP_LIMIT);
+            if (cap > limit) {
+                st = inflates_past(limit);
                 break;
             }
-            size_t next = cap > PHKS_GZIP_LIMIT / 2 ? PHKS_GZIP_LIMIT + 1 : 2 * cap;
+            size_t next = cap > limit / 2 ? limit + 1 : 2 * cap;
             char *bigger = phks__realloc(buf, next);
             if (!bigger) {
                 st = phks__fail_oom("gzip inflation");
@@ -187,10 +193,8 @@ static phks_status inflate_all(z_stream *z, const unsigned char *in,
         used = (size_t)(z->next_in - in);
         len = (size_t)((char *)z->next_out - buf);
         bool stuck = used == used_before && len == len_before;
-        if (len > PHKS_GZIP_LIMIT) { /* the byte past the limit, even if last */
-            st = phks__fail(PHKS_ERROR_TOO_LARGE,
-                           "gzip data inflates to more than %zu bytes",
-                           (size_t)PHKS_GZIP_LIMIT);
+        if (len > limit) { /* the byte past the limit, even if last */
+            st = inflates_past(limit);
             break;
         }
         if (ret == Z_STREAM_END) {
@@ -221,8 +225,8 @@ static phks_status inflate_all(z_stream *z, const unsigned char *in,
     return PHKS_OK;
 }
 
-static phks_status gunzip(const void *in, size_t size, char **out,
-                          size_t *out_size)
+static phks_status gunzip(const void *in, size_t size, size_t limit,
+                          char **out, size_t *out_size)
 {
     z_stream z;
     memset(&z, 0, sizeof z);
@@ -231,7 +235,7 @@ static phks_status gunzip(const void *in, size_t size, char **out,
     int ret = inflateInit2(&z, 15 + 32); /* 32: expect a gzip header */
     if (ret != Z_OK)
         return inflate_error(ret, &z, 0);
-    phks_status st = inflate_all(&z, in, size, out, out_size);
+    phks_status st = inflate_all(&z, in, size, limit, out, out_size);
     inflateEnd(&z);
     return st;
 }
@@ -369,21 +373,29 @@ static phks_status parse(const char *data, size_t size, phks_format format,
     }
 }
 
-/* Inflates gzip data first; takes ownership of *owned when set, so the
- * compressed bytes are freed before the much larger parse begins. */
+/* Inflates gzip data first, to at most max_bytes (and the built-in
+ * PHKS_GZIP_LIMIT); plain data over max_bytes is refused unread. Takes
+ * ownership of *owned when set, so the compressed bytes are freed before
+ * the much larger parse begins. */
 static phks_status load(const char *data, size_t size, char *owned,
-                        phks_format format, phks__raw_mesh *raw)
+                        phks_format format, size_t max_bytes,
+                        phks__raw_mesh *raw)
 {
     char *inflated = NULL;
+    phks_status st = PHKS_OK;
     if (is_gzip((const unsigned char *)data, size)) {
-        phks_status st = gunzip(data, size, &inflated, &size);
+        size_t limit = max_bytes < PHKS_GZIP_LIMIT ? max_bytes : PHKS_GZIP_LIMIT;
+        st = gunzip(data, size, limit, &inflated, &size);
         phks__free(owned);
         owned = NULL;
-        if (st != PHKS_OK)
-            return st;
         data = inflated;
+    } else if (size > max_bytes) {
+        st = phks__fail(PHKS_ERROR_TOO_LARGE,
+                        "%zu bytes of mesh data, more than the limit of %zu",
+                        size, max_bytes);
     }
-    phks_status st = parse(data, size, format, raw);
+    if (st == PHKS_OK)
+        st = parse(data, size, format, raw);
     phks__free(inflated);
     phks__free(owned);
     return st;
@@ -395,12 +407,13 @@ phks_status phks__raw_mesh_read_file(const char *path, phks__raw_mesh *raw)
     size_t size = 0;
     phks_status st = read_file(path, &data, &size);
     if (st == PHKS_OK)
-        st = load(data, size, data, format_from_name(path), raw);
+        st = load(data, size, data, format_from_name(path), SIZE_MAX, raw);
     return st;
 }
 
 phks_status phks__raw_mesh_read_memory(const void *data, size_t size,
-                                      phks_format format, phks__raw_mesh *raw)
+                                      phks_format format, size_t max_bytes,
+                                      phks__raw_mesh *raw)
 {
-    return load(data, size, NULL, format, raw);
+    return load(data, size, NULL, format, max_bytes, raw);
 }
