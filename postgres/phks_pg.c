@@ -1,7 +1,7 @@
 /*
  * phks_pg.c - the PostgreSQL extension `phks` (docs/postgres.md): the type
  * phks_signature (the library's encoded blob), scoring, the operator <~>,
- * accessors and signatures computed from mesh bytes inside the server.
+ * accessors; signatures computed from mesh bytes are in phks_pg_mesh.c.
  *
  * Public API only (include/phks.h). Every library handle is freed before
  * any ereport(ERROR) can leave the function: the library allocates with
@@ -31,9 +31,11 @@ void _PG_init(void);
 /* OpenBLAS threads have no place in a backend: computations run on the
  * backend's own thread (options.threads = 1) and BLAS on one thread too.
  * (The server's environment should also have OPENBLAS_NUM_THREADS=1, so
- * that OpenBLAS does not even start its pool: docs/postgres.md.) */
+ * that OpenBLAS does not even start its pool: docs/postgres.md.) The
+ * settings phks.* are defined here too. */
 void _PG_init(void)
 {
+    phks_pg_define_mesh_limits();
     void (*set_threads)(int) = NULL;
     void *sym = dlsym(RTLD_DEFAULT, "openblas_set_num_threads");
     if (sym)
@@ -96,25 +98,6 @@ phks_signature *phks_pg_decode(const void *data, size_t size,
         phks_pg_error(st, what, msg);
     }
     return sig;
-}
-
-/* A palloc'd varlena holding the encoded blob of sig; frees sig (also when
- * encoding fails, before raising the error). */
-static bytea *encode_and_free(phks_signature *sig, const char *what)
-{
-    size_t size = phks_signature_encoded_size(sig);
-    bytea *out = (bytea *)palloc(VARHDRSZ + size);
-    size_t written = 0;
-    phks_status st = phks_signature_encode(sig, VARDATA(out), size, &written);
-    if (st != PHKS_OK || written != size) {
-        char *msg = st != PHKS_OK ? phks_pg_last_message(st)
-                                  : pstrdup("encoded size changed");
-        phks_signature_free(sig);
-        phks_pg_error(st != PHKS_OK ? st : PHKS_ERROR_CORRUPT, what, msg);
-    }
-    phks_signature_free(sig);
-    SET_VARSIZE(out, VARHDRSZ + size);
-    return out;
 }
 
 /* Validates raw bytes as a blob and returns them as a new varlena. */
@@ -449,64 +432,4 @@ Datum phks_pg_options(PG_FUNCTION_ARGS)
     appendStringInfoChar(&out, '}');
     /* json's representation is its text. */
     PG_RETURN_TEXT_P(cstring_to_text_with_len(out.data, out.len));
-}
-
-/* ---------------------------------------------------------------------
- * Signatures from mesh bytes, computed in the backend on its own thread
- * with the default options. A pending cancel or termination stops the
- * computation through the progress callback; the handles are freed and
- * CHECK_FOR_INTERRUPTS raises it.
- * ------------------------------------------------------------------- */
-static int progress_interrupts(void *user, phks_stage stage, double fraction)
-{
-    (void)user;
-    (void)stage;
-    (void)fraction;
-    return (QueryCancelPending || ProcDiePending) ? 1 : 0;
-}
-
-PG_FUNCTION_INFO_V1(phks_pg_from_mesh);
-Datum phks_pg_from_mesh(PG_FUNCTION_ARGS)
-{
-    bytea *data = PG_GETARG_BYTEA_PP(0);
-    char *format_name = text_to_cstring(PG_GETARG_TEXT_PP(1));
-    phks_format format;
-    if (pg_strcasecmp(format_name, "auto") == 0)
-        format = PHKS_FORMAT_AUTO;
-    else if (pg_strcasecmp(format_name, "off") == 0)
-        format = PHKS_FORMAT_OFF;
-    else if (pg_strcasecmp(format_name, "obj") == 0)
-        format = PHKS_FORMAT_OBJ;
-    else if (pg_strcasecmp(format_name, "ply") == 0)
-        format = PHKS_FORMAT_PLY;
-    else if (pg_strcasecmp(format_name, "stl") == 0)
-        format = PHKS_FORMAT_STL;
-    else
-        ereport(ERROR, (errcode(ERRCODE_INVALID_PARAMETER_VALUE),
-                        errmsg("phks_signature_from_mesh: unknown format "
-                               "\"%s\" (auto, off, obj, ply or stl)",
-                               format_name)));
-
-    phks_mesh *mesh = NULL;
-    phks_status st = phks_mesh_load_memory(VARDATA_ANY(data),
-                                           VARSIZE_ANY_EXHDR(data), format,
-                                           &mesh);
-    if (st != PHKS_OK) {
-        char *msg = phks_pg_last_message(st);
-        phks_pg_error(st, "phks_signature_from_mesh", msg);
-    }
-    phks_options options;
-    phks_options_init(&options);
-    options.threads = 1;
-    options.progress = progress_interrupts;
-    phks_signature *sig = NULL;
-    st = phks_signature_compute(mesh, &options, &sig);
-    phks_mesh_free(mesh);
-    if (st != PHKS_OK) {
-        char *msg = phks_pg_last_message(st);
-        if (st == PHKS_ERROR_CANCELLED)
-            CHECK_FOR_INTERRUPTS();
-        phks_pg_error(st, "phks_signature_from_mesh", msg);
-    }
-    PG_RETURN_BYTEA_P(encode_and_free(sig, "phks_signature_from_mesh"));
 }

@@ -32,6 +32,10 @@ char *phks_pg_hex_decode(const char *text, const char *type, size_t *size);
 /* The hex text of size bytes, palloc'd. */
 char *phks_pg_hex_encode(const void *data, size_t size);
 
+/* Defines the settings phks.max_vertices and phks.max_mesh_size
+ * (phks_pg_mesh.c), at load. */
+void phks_pg_define_mesh_limits(void);
+
 typedef struct phks_pg_key phks_pg_key;
 
 /* The query signature, the second argument, decoded once per expression
