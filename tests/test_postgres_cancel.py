@@ -155,8 +155,9 @@ def test_limits(cluster):
                    ["phks.max_vertices", str(ADMIN_MAX_VERTICES), "2000000",
                     ""]], "the settings: %s" % rows)
 
-    err = cluster.error("SELECT %s;" % read)
-    check("1200 vertices, more than the limit of 1199" in err and
+    err = cluster.error("\\set VERBOSITY verbose\nSELECT %s;" % read)
+    check("54000" in err and
+          "1200 vertices, more than the limit of 1199" in err and
           "phks.max_vertices is 1199" in err, "vertex limit: " + err)
     check(cluster.sql("SET phks.max_vertices = 1200; SELECT %s IS NOT NULL;"
                       % read) == [["t"]], "exactly at the vertex limit")
