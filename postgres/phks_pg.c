@@ -100,15 +100,30 @@ phks_signature *phks_pg_decode(const void *data, size_t size,
     return sig;
 }
 
-/* Validates raw bytes as a blob and returns them as a new varlena. */
-static bytea *validated_copy(const char *data, size_t size, const char *what)
+bytea *phks_pg_encode_and_free(phks_signature *sig, const char *what)
 {
-    phks_signature *sig = phks_pg_decode(data, size, what);
-    phks_signature_free(sig);
+    size_t size = phks_signature_encoded_size(sig);
     bytea *out = (bytea *)palloc(VARHDRSZ + size);
-    memcpy(VARDATA(out), data, size);
+    size_t written = 0;
+    phks_status st = phks_signature_encode(sig, VARDATA(out), size, &written);
+    if (st != PHKS_OK || written != size) {
+        char *msg = st != PHKS_OK ? phks_pg_last_message(st)
+                                  : pstrdup("encoded size changed");
+        phks_signature_free(sig);
+        phks_pg_error(st != PHKS_OK ? st : PHKS_ERROR_CORRUPT, what, msg);
+    }
+    phks_signature_free(sig);
     SET_VARSIZE(out, VARHDRSZ + size);
     return out;
+}
+
+/* The canonical blob of raw bytes: decoded (refused if damaged) and
+ * encoded again, so that one signature has one stored form whatever wrote
+ * it (an older format is stored as the current one) and equality can
+ * compare bytes (phks_pg_equal.c). A current blob comes back unchanged. */
+static bytea *canonical_copy(const char *data, size_t size, const char *what)
+{
+    return phks_pg_encode_and_free(phks_pg_decode(data, size, what), what);
 }
 
 /* ---------------------------------------------------------------------
@@ -168,7 +183,7 @@ Datum phks_signature_in(PG_FUNCTION_ARGS)
     size_t size;
     char *raw =
         phks_pg_hex_decode(PG_GETARG_CSTRING(0), "phks_signature", &size);
-    bytea *out = validated_copy(raw, size, "phks_signature");
+    bytea *out = canonical_copy(raw, size, "phks_signature");
     pfree(raw);
     PG_RETURN_BYTEA_P(out);
 }
@@ -187,7 +202,7 @@ Datum phks_signature_recv(PG_FUNCTION_ARGS)
     StringInfo buf = (StringInfo)PG_GETARG_POINTER(0);
     int size = buf->len - buf->cursor;
     const char *data = pq_getmsgbytes(buf, size);
-    PG_RETURN_BYTEA_P(validated_copy(data, (size_t)size, "phks_signature"));
+    PG_RETURN_BYTEA_P(canonical_copy(data, (size_t)size, "phks_signature"));
 }
 
 PG_FUNCTION_INFO_V1(phks_signature_send);
@@ -202,7 +217,7 @@ PG_FUNCTION_INFO_V1(phks_signature_from_bytea);
 Datum phks_signature_from_bytea(PG_FUNCTION_ARGS)
 {
     bytea *blob = PG_GETARG_BYTEA_PP(0);
-    PG_RETURN_BYTEA_P(validated_copy(VARDATA_ANY(blob),
+    PG_RETURN_BYTEA_P(canonical_copy(VARDATA_ANY(blob),
                                      VARSIZE_ANY_EXHDR(blob),
                                      "phks_signature"));
 }

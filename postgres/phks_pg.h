@@ -26,6 +26,10 @@ void phks_pg_error(phks_status st, const char *what, char *msg)
 phks_signature *phks_pg_decode(const void *data, size_t size,
                                const char *what);
 
+/* A palloc'd varlena holding the encoded blob of sig; frees sig, also
+ * when encoding fails, before raising the error (which what names). */
+bytea *phks_pg_encode_and_free(phks_signature *sig, const char *what);
+
 /* The bytes of hex text (an optional \x prefix is accepted, as for
  * bytea), palloc'd, into *size; a syntax error names type. */
 char *phks_pg_hex_decode(const char *text, const char *type, size_t *size);

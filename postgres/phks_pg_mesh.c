@@ -92,26 +92,6 @@ static int progress_interrupts(void *user, phks_stage stage, double fraction)
     return (QueryCancelPending || ProcDiePending) ? 1 : 0;
 }
 
-/* A palloc'd varlena holding the encoded blob of sig; frees sig (also when
- * encoding fails, before raising the error). */
-static bytea *encode_and_free(phks_signature *sig)
-{
-    size_t size = phks_signature_encoded_size(sig);
-    bytea *out = (bytea *)palloc(VARHDRSZ + size);
-    size_t written = 0;
-    phks_status st = phks_signature_encode(sig, VARDATA(out), size, &written);
-    if (st != PHKS_OK || written != size) {
-        char *msg = st != PHKS_OK ? phks_pg_last_message(st)
-                                  : pstrdup("encoded size changed");
-        phks_signature_free(sig);
-        phks_pg_error(st != PHKS_OK ? st : PHKS_ERROR_CORRUPT,
-                      "phks_signature_from_mesh", msg);
-    }
-    phks_signature_free(sig);
-    SET_VARSIZE(out, VARHDRSZ + size);
-    return out;
-}
-
 /* phks_signature_from_mesh(mesh bytea, format text): with the library's
  * default options, on the backend's own thread. */
 PG_FUNCTION_INFO_V1(phks_pg_from_mesh);
@@ -133,5 +113,6 @@ Datum phks_pg_from_mesh(PG_FUNCTION_ARGS)
             CHECK_FOR_INTERRUPTS();
         phks_pg_error(st, "phks_signature_from_mesh", msg);
     }
-    PG_RETURN_BYTEA_P(encode_and_free(sig));
+    PG_RETURN_BYTEA_P(
+        phks_pg_encode_and_free(sig, "phks_signature_from_mesh"));
 }
