@@ -111,6 +111,17 @@ case $out in
     *) fail "$tool --version printed: $out" ;;
 esac
 
+# --- the Python extension, where built: its RUNPATH names the installed
+# library's folder (the prefix's, not the stage's) ---------------------------
+extension=$(find "$stage" -name '_phks*.so' | head -n 1)
+if [ -n "$extension" ] && command -v readelf >/dev/null 2>&1; then
+    runpath=$(readelf -d "$extension" | sed -n 's/.*(RUNPATH).*\[\(.*\)\]/\1/p')
+    case ":$runpath:" in
+        *":${libdir#"$stage"}:"*) echo "python extension: RUNPATH $runpath" ;;
+        *) fail "$extension: RUNPATH '$runpath' lacks ${libdir#"$stage"}" ;;
+    esac
+fi
+
 # --- pkg-config ----------------------------------------------------------
 # pkgconf puts PKG_CONFIG_SYSROOT_DIR before the -I and -L paths; keep the
 # system paths too, in case the prefix is /usr.
