@@ -458,7 +458,7 @@ static PyMethodDef Database_methods[] = {
      METH_VARARGS | METH_KEYWORDS,
      "query(signature, k=10) -> [Hit, ...]: the k lowest scores, best "
      "first, ties to the lower id; with matching 'verified' among the "
-     "max(k, 100) entries of lowest score_nearest."},
+     "max(k, 32) entries of lowest score_nearest."},
     {"list", (PyCFunction)Database_list, METH_NOARGS,
      "list() -> [id, ...], ascending."},
     {"get", (PyCFunction)Database_get, METH_O,

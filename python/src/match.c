@@ -106,8 +106,9 @@ static PyObject *py_match(PyObject *module, PyObject *args)
 
 static PyMethodDef match_functions[] = {
     {"score", py_score, METH_VARARGS,
-     "score(query, entry) -> float: lower is more similar; with matching "
-     "'verified' (the default) asymmetric, in [0, 1]."},
+     "score(query, entry) -> float: 0 or more, lower is more similar (no "
+     "upper bound: include/phks.h); with matching 'verified' (the default) "
+     "asymmetric."},
     {"score_nearest", py_score_nearest, METH_VARARGS,
      "score_nearest(a, b) -> float: the paper's symmetric sum of nearest L1 "
      "distances, whatever the matching (a query's fast first stage)."},
