@@ -185,6 +185,8 @@ def run_session(pg, statements, tally):
             check(e.startswith("ERROR: ") and len(e) > len("ERROR: ") + 5,
                   "%s (%s): not an ERROR with a message: %s" %
                   (s.entry, s.kind, e))
+            check("\ufffd" not in e, "%s (%s): the message is not valid "
+                  "UTF-8: %s" % (s.entry, s.kind, e))
             check("statement timeout" not in e,
                   "%s (%s) ran for a minute: %s" % (s.entry, s.kind,
                                                     s.sql[:200]))
