@@ -17,6 +17,7 @@
 #include "fmgr.h"
 #include "lib/stringinfo.h"
 #include "libpq/pqformat.h"
+#include "mb/pg_wchar.h"
 #include "miscadmin.h"
 #include "utils/array.h"
 #include "utils/builtins.h"
@@ -143,7 +144,8 @@ char *phks_pg_hex_decode(const char *text, const char *type, size_t *size)
     for (size_t i = 0; i < len / 2; i++) {
         int v = 0;
         for (int h = 0; h < 2; h++) {
-            char c = text[2 * i + h];
+            const char *at = text + 2 * i + h;
+            char c = *at;
             int d;
             if (c >= '0' && c <= '9')
                 d = c - '0';
@@ -152,10 +154,12 @@ char *phks_pg_hex_decode(const char *text, const char *type, size_t *size)
             else if (c >= 'A' && c <= 'F')
                 d = c - 'A' + 10;
             else
+                /* The whole character: its first byte alone would make
+                 * the message invalid in a multibyte encoding. */
                 ereport(ERROR,
                         (errcode(ERRCODE_INVALID_TEXT_REPRESENTATION),
-                         errmsg("invalid input syntax for type %s: \"%c\" "
-                                "is not a hex digit", type, c)));
+                         errmsg("invalid input syntax for type %s: \"%.*s\" "
+                                "is not a hex digit", type, pg_mblen(at), at)));
             v = v * 16 + d;
         }
         raw[i] = (char)v;

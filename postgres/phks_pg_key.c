@@ -125,8 +125,9 @@ static phks_status key_of(const phks_signature *sig, phks_pg_key **out)
     return PHKS_OK;
 }
 
-/* Why the size bytes of key are not a whole key, or NULL. */
-static const char *key_problem(const phks_pg_key *key, size_t size)
+/* Why the header of key does not describe size bytes, or NULL: in
+ * constant time, the vectors unread. */
+static const char *key_header_problem(const phks_pg_key *key, size_t size)
 {
     size_t fixed = offsetof(phks_pg_key, vectors);
     if (size < fixed)
@@ -141,6 +142,15 @@ static const char *key_problem(const phks_pg_key *key, size_t size)
         key->count > (MaxAllocSize - fixed) / (key->length * sizeof(double)) ||
         key_size(key->count, key->length) != size)
         return "its size does not match its vectors and options";
+    return NULL;
+}
+
+/* Why the size bytes of key are not a whole key, or NULL. */
+static const char *key_problem(const phks_pg_key *key, size_t size)
+{
+    const char *problem = key_header_problem(key, size);
+    if (problem)
+        return problem;
     for (size_t i = 0; i < (size_t)key->count * key->length; i++)
         if (!isfinite(key->vectors[i]))
             return "a vector entry is not finite";
@@ -252,6 +262,12 @@ PG_FUNCTION_INFO_V1(phks_pg_key_distance);
 Datum phks_pg_key_distance(PG_FUNCTION_ARGS)
 {
     phks_pg_key *key = (phks_pg_key *)PG_DETOAST_DATUM(PG_GETARG_DATUM(0));
+    /* Keys are checked on their way in, but a damaged page could still
+     * hand over bytes whose count sends the score past their end. */
+    const char *problem = key_header_problem(key, VARSIZE(key));
+    if (problem)
+        ereport(ERROR, (errcode(ERRCODE_DATA_CORRUPTED),
+                        errmsg("phks_key: %s", problem)));
     bytea *blob = PG_GETARG_BYTEA_PP(1);
     phks_pg_key *qkey;
     if (fcinfo->flinfo) {

@@ -156,12 +156,13 @@ class Cluster:
 
     def sql(self, script, check=True):
         """Runs script through psql (stdin); returns rows of '|'-separated
-        fields. With check=False returns (rows, stderr, returncode)."""
+        fields. With check=False returns (rows, stderr, returncode). Bytes
+        that are not UTF-8 in psql's output come back as U+FFFD."""
         out = subprocess.run(
             [os.path.join(self.bindir, "psql"), "-X", "-q", "-A", "-t",
              "-v", "ON_ERROR_STOP=1", "-h", self.sock, "-p", str(self.port),
              "-U", "postgres", "-d", "postgres", "-f", "-"],
-            input=script, capture_output=True, text=True)
+            input=script, capture_output=True, text=True, errors="replace")
         rows = [line.split("|") for line in out.stdout.splitlines()]
         if check:
             if out.returncode != 0:
