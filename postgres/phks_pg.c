@@ -82,10 +82,14 @@ char *phks_pg_last_message(phks_status st)
     return pstrdup(msg);
 }
 
+/* The library's messages start with the function that failed; where that
+ * is the SQL function's own name, it is not said twice. */
 void phks_pg_error(phks_status st, const char *what, char *msg)
 {
+    size_t n = strlen(what);
+    bool named = strncmp(msg, what, n) == 0 && msg[n] == ':';
     ereport(ERROR, (errcode(pg_errcode_of(st)),
-                    errmsg("%s: %s", what, msg)));
+                    named ? errmsg("%s", msg) : errmsg("%s: %s", what, msg)));
     pg_unreachable();
 }
 

@@ -16,8 +16,9 @@
  * (call it before freeing handles: a later failing call replaces it). */
 char *phks_pg_last_message(phks_status st);
 
-/* Raises the error of status st, "what: msg", with the SQLSTATE of st.
- * Call it only once every library handle is freed. */
+/* Raises the error of status st, "what: msg" (msg alone when it starts
+ * with "what:"), with the SQLSTATE of st. Call it only once every library
+ * handle is freed. */
 void phks_pg_error(phks_status st, const char *what, char *msg)
     pg_attribute_noreturn();
 

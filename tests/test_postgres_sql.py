@@ -191,6 +191,12 @@ def test_one_option_set(pg, sigs, meshes, work):
     check(first.returncode == 0 and "hks_scaling none against local_area" in
           err, "two first rows at once: %d, %s" % (first.returncode, err))
     check(pg.sql("SELECT id FROM race;") == [["1"]], "the first row stays")
+    # The library's message names the function once, not twice.
+    err = pg.error("SELECT phks_score_nearest(%s, %s);" %
+                   (pgutil.literal(other), pgutil.literal(sigs[0])))
+    check(err.count("phks_score_nearest:") == 1 and
+          "different options (hks_scaling none against local_area)" in err,
+          "a mismatch's message: " + err)
     print("phks_one_option_set checked")
 
 
