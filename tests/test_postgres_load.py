@@ -23,6 +23,8 @@ shortlists by the key). PART is one of:
            inserted on the primary, answers the same top k, and refuses
            writes.
 """
+import bisect
+import collections
 import hashlib
 import os
 import random
@@ -140,74 +142,99 @@ def query_expression(qid):
     return "(SELECT sig FROM queries WHERE qid = %d)" % qid
 
 
-class Reader(threading.Thread):
-    """A client that runs the top 10 of random queries until the deadline,
-    each in a REPEATABLE READ transaction that also reads which rows its
-    snapshot holds (max(id), count(*)) and runs the query a second time
-    without parallel workers."""
+class Client(threading.Thread):
+    """A connection that runs step() again and again until the deadline.
+    Any failure, the server's or a reply that does not parse, is the
+    client's error and ends it."""
 
-    def __init__(self, pg, seed, queries, deadline):
+    def __init__(self, pg, deadline):
         super().__init__()
-        self.pg, self.queries, self.deadline = pg, queries, deadline
-        self.rng = random.Random(seed)
-        self.answers = []  # (qid, max id, count, rows, rows not parallel)
-        self.queries_run = 0
+        self.pg, self.deadline = pg, deadline
         self.slowest = 0.0
         self.error = None
 
     def run(self):
         session = pgutil.Session(self.pg)
         try:
-            session.run(PARALLEL)
+            self.start_session(session)
             while time.time() < self.deadline:
-                self.transaction(session, self.rng.randrange(self.queries))
-        except pgutil.SQLError as e:
-            self.error = str(e)
+                self.step(session)
+        except Exception as e:
+            self.error = "%s: %s" % (type(e).__name__, e)
         session.close()
+
+    def start_session(self, session):
+        pass
 
     def timed(self, session, script):
         start = time.time()
         rows = session.run(script)
         self.slowest = max(self.slowest, time.time() - start)
-        self.queries_run += 1
         return [tuple(r) for r in rows]
 
-    def transaction(self, session, qid):
+
+# What a reader saw in one transaction: the query, the rows its snapshot
+# held (the highest id and their count), the top 10, and the top 10
+# again without parallel workers.
+Answer = collections.namedtuple("Answer",
+                                "qid last_id rows_seen hits hits_plain")
+
+
+class Reader(Client):
+    """A client that runs the top 10 of random queries, each in a
+    REPEATABLE READ transaction that also reads which rows its snapshot
+    holds and runs the query a second time without parallel workers."""
+
+    def __init__(self, pg, deadline, seed, queries):
+        super().__init__(pg, deadline)
+        self.rng = random.Random(seed)
+        self.queries = queries
+        self.answers = []
+
+    def start_session(self, session):
+        session.run(PARALLEL)
+
+    def step(self, session):
+        qid = self.rng.randrange(self.queries)
         query = pgutil.two_stage("shapes", query_expression(qid), 10)
         seen = session.run("BEGIN ISOLATION LEVEL REPEATABLE READ;\n"
                            "SELECT max(id), count(*) FROM shapes;")
-        parallel = self.timed(session, query)
+        hits = self.timed(session, query)
         plain = self.timed(session, "SET LOCAL "
                            "max_parallel_workers_per_gather = 0;\n" + query)
         session.run("COMMIT;")
-        self.answers.append((qid, int(seen[0][0]), int(seen[0][1]),
-                             parallel, plain))
+        self.answers.append(Answer(qid, int(seen[0][0]), int(seen[0][1]),
+                                   hits, plain))
 
 
-class Inserter(threading.Thread):
-    """A client that inserts the rows in turn, again and again, until the
-    deadline: one row per transaction, ids from the table's sequence."""
+class Inserter(Client):
+    """A client that inserts the rows in turn, again and again: one row
+    per transaction, ids from the table's sequence."""
 
-    def __init__(self, pg, rows, deadline):
-        super().__init__()
-        self.pg, self.rows, self.deadline = pg, rows, deadline
+    def __init__(self, pg, deadline, rows):
+        super().__init__(pg, deadline)
+        self.rows = rows
         self.ids = []
-        self.slowest = 0.0
-        self.error = None
 
-    def run(self):
-        session = pgutil.Session(self.pg)
-        try:
-            while time.time() < self.deadline:
-                row = self.rows[len(self.ids) % len(self.rows)]
-                start = time.time()
-                got = session.run("INSERT INTO shapes (name, sig) VALUES "
-                                  "%s RETURNING id;" % row.values())
-                self.slowest = max(self.slowest, time.time() - start)
-                self.ids.append(int(got[0][0]))
-        except pgutil.SQLError as e:
-            self.error = str(e)
-        session.close()
+    def step(self, session):
+        row = self.rows[len(self.ids) % len(self.rows)]
+        got = self.timed(session, "INSERT INTO shapes (name, sig) VALUES "
+                         "%s RETURNING id;" % row.values())
+        self.ids.append(int(got[0][0]))
+
+
+def parallel_workers_while(pg, clients):
+    """The number of parallel workers running, every half second while
+    the clients run."""
+    session = pgutil.Session(pg)
+    counts = []
+    while any(c.is_alive() for c in clients):
+        counts.append(int(session.run(
+            "SELECT count(*) FROM pg_stat_activity "
+            "WHERE backend_type = 'parallel worker';")[0][0]))
+        time.sleep(0.5)
+    session.close()
+    return counts
 
 
 def serial_answers(pg, keys):
@@ -226,6 +253,9 @@ def serial_answers(pg, keys):
             current = []
         else:
             current.append(tuple(row))
+    if len(answers) != len(keys):
+        raise SystemExit("%d serial answers to %d queries"
+                         % (len(answers), len(keys)))
     return dict(zip(keys, answers))
 
 
@@ -252,43 +282,49 @@ def part_load():
           % (SMALL, len(queries), seconds, time.time() - t0))
 
     deadline = time.time() + seconds
-    readers = [Reader(pg, i, len(queries), deadline) for i in range(CLIENTS)]
-    inserter = Inserter(pg, entries, deadline)
-    for client in readers + [inserter]:
+    readers = [Reader(pg, deadline, i, len(queries)) for i in range(CLIENTS)]
+    inserter = Inserter(pg, deadline, entries)
+    clients = readers + [inserter]
+    for client in clients:
         client.start()
-    for client in readers + [inserter]:
+    workers = parallel_workers_while(pg, clients)
+    for client in clients:
         client.join()
 
-    errors = [c.error for c in readers + [inserter] if c.error]
+    errors = [c.error for c in clients if c.error]
     check(not errors, "no client meets an error: %s" % errors)
     answers = [a for r in readers for a in r.answers]
     print("load: %d queries (%d transactions) by %d clients, %d inserts, "
           "%d errors; slowest query %.3f s, slowest insert %.3f s"
-          % (sum(r.queries_run for r in readers), len(answers), CLIENTS,
-             len(inserter.ids), len(errors), max(r.slowest for r in readers),
-             inserter.slowest))
+          % (2 * len(answers), len(answers), CLIENTS, len(inserter.ids),
+             len(errors), max(r.slowest for r in readers), inserter.slowest))
+    print("parallel workers running: %.1f on average, %d at most"
+          % (sum(workers) / max(1, len(workers)), max(workers, default=0)))
+    check(max(workers, default=0) > 0, "parallel plans ran under the load")
 
     # One inserter committing in id order: a snapshot that saw id M saw
-    # every row up to M and none after; the count confirms it.
+    # every row up to M and none after; its count confirms it.
     ids = [int(r[0]) for r in pg.sql("SELECT id FROM shapes ORDER BY id;")]
     check(ids == list(range(1, SMALL + 1)) + inserter.ids,
           "the table holds the first rows and every insert, in id order")
-    bad = [a[:3] for a in answers if a[2] != sum(1 for i in ids if i <= a[1])]
+    bad = [a[:3] for a in answers
+           if a.rows_seen != bisect.bisect_right(ids, a.last_id)]
     check(not bad, "each snapshot held the rows up to its max(id): %s"
           % bad[:5])
-    bad = [a[:2] for a in answers if a[3] != a[4] or len(a[3]) != 10]
+    bad = [a[:2] for a in answers if a.hits != a.hits_plain or
+           len(a.hits) != 10]
     check(not bad, "the parallel and the plain plan agree in each "
           "snapshot: %s" % bad[:5])
 
     start = time.time()
-    keys = sorted({(a[0], a[1]) for a in answers})
+    keys = sorted({(a.qid, a.last_id) for a in answers})
     serial = serial_answers(pg, keys)
-    bad = [(a[0], a[1], a[3][:2], serial[a[0], a[1]][:2])
-           for a in answers if a[3] != serial[a[0], a[1]]]
+    bad = [(a.qid, a.last_id, a.hits[:2], serial[a.qid, a.last_id][:2])
+           for a in answers if a.hits != serial[a.qid, a.last_id]]
     check(not bad, "every answer equals the serial query on its snapshot's "
           "rows: %s" % bad[:3])
-    print("%d answers (%d distinct snapshots and queries) equal the serial "
-          "ones, recomputed in %.1f s"
+    print("%d answers (%d distinct queries and snapshots) checked against "
+          "the serial ones, recomputed in %.1f s"
           % (len(answers), len(keys), time.time() - start))
     pg.stop()
 
@@ -468,14 +504,16 @@ def part_dump():
 
 
 def wait_for_replay(replica, lsn, timeout=60):
-    """Seconds until replica has replayed the primary's WAL up to lsn."""
-    start = time.time()
-    while time.time() - start < timeout:
-        if replica.sql("SELECT pg_last_wal_replay_lsn() >= '%s'::pg_lsn;"
-                       % lsn) == [["t"]]:
-            return time.time() - start
-        time.sleep(0.01)
-    raise SystemExit("the replica did not replay %s in %d s" % (lsn, timeout))
+    """Waits until replica has replayed the primary's WAL up to lsn."""
+    session = pgutil.Session(replica)
+    end = time.time() + timeout
+    while session.run("SELECT pg_last_wal_replay_lsn() >= '%s'::pg_lsn;"
+                      % lsn) != [["t"]]:
+        if time.time() > end:
+            raise SystemExit("the replica did not replay %s in %d s"
+                             % (lsn, timeout))
+        time.sleep(0.001)
+    session.close()
 
 
 def part_replica():
@@ -490,11 +528,13 @@ def part_replica():
     session = pgutil.Session(primary)
     for row in after:
         session.run(insert_sql("shapes", [row]))
+    committed = time.time()
+    lsn = session.run("SELECT pg_current_wal_lsn();")[0][0]
     session.close()
-    lsn = primary.sql("SELECT pg_current_wal_lsn();")[0][0]
-    lag = wait_for_replay(replica, lsn)
-    print("%d rows inserted one per transaction; the replica replayed the "
-          "last %.3f s after its commit" % (len(after), lag))
+    wait_for_replay(replica, lsn)
+    print("%d rows inserted one per transaction; the replica had replayed "
+          "the last %.3f s after its commit" % (len(after),
+                                                time.time() - committed))
     check(primary.sql("SELECT state FROM pg_stat_replication;") ==
           [["streaming"]], "one replica, streaming")
 
