@@ -380,9 +380,10 @@ def part_kill():
         acknowledged[int(got[0][0])] = row
     # The transaction to kill: rows inserted, then a statement that
     # computes signatures in the server for seconds.
+    doomed_rows = rows[COMMITTED:COMMITTED + 5]
     doomed = session.run("BEGIN;\nINSERT INTO shapes (name, sig) VALUES %s "
-                         "RETURNING id;" % ", ".join(
-                             r.values() for r in rows[COMMITTED:COMMITTED + 5]))
+                         "RETURNING id;" % ", ".join(r.values()
+                                                     for r in doomed_rows))
     values = []
     for mesh, row in slow:
         with open(mesh, "rb") as f:
@@ -435,7 +436,7 @@ def part_kill():
     pg.sql(table_sql("fresh") + "INSERT INTO fresh (id, name, sig) VALUES "
            "%s;\nANALYZE shapes, fresh;" % ",\n".join(
                acknowledged[i].values(i) for i in sorted(acknowledged)))
-    for q in rows[:COMMITTED:20] + rows[COMMITTED:COMMITTED + 3] + real[:2]:
+    for q in rows[:COMMITTED:20] + doomed_rows[:3] + real[:2]:
         check(topk(pg, "shapes", literal(q)) == topk(pg, "fresh", literal(q)),
               "top 10 of %s after the kill equals a fresh table's" % q.name)
     got = pg.sql(insert_sql("shapes", rows[-1:]).rstrip(";\n") +
