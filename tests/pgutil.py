@@ -9,7 +9,10 @@ finds the library beside it, whatever the build folder's permissions.
 Cluster() runs initdb and pg_ctl as the `postgres` user when run as root
 (the server refuses root) in a temporary folder, on a free port of
 127.0.0.1 and a private socket folder; stop() (and exit, and SIGTERM/SIGINT)
-stops it and removes the folder.
+stops it and removes the folder. Cluster(..., primary=p) is a streaming
+replica of cluster p instead (pg_basebackup -R), stopped and removed
+likewise. Session() is one long-lived psql connection fed through a pipe,
+as a client's would be.
 """
 import atexit
 import glob
@@ -20,6 +23,7 @@ import socket
 import subprocess
 import sys
 import tempfile
+from concurrent.futures import ThreadPoolExecutor
 
 SKIP = 77  # meson's exit code for a skipped test
 
@@ -103,7 +107,7 @@ class SQLError(Exception):
 
 
 class Cluster:
-    def __init__(self, bindir, name="pg", settings=()):
+    def __init__(self, bindir, name="pg", settings=(), primary=None):
         self.bindir = bindir
         self.root = tempfile.mkdtemp(prefix="phks-%s-" % name)
         _clusters.append(self)
@@ -118,10 +122,21 @@ class Cluster:
         self.port = free_port()
         self.log = os.path.join(self.root, "server.log")
         env = ["env", "OPENBLAS_NUM_THREADS=1", "LC_ALL=C"]
-        self._run(self.as_postgres + env +
-                  [os.path.join(bindir, "initdb"), "-D", self.data,
-                   "-U", "postgres", "--auth=trust", "-E", "UTF8",
-                   "--no-sync"])
+        if primary is None:
+            self._run(self.as_postgres + env +
+                      [os.path.join(bindir, "initdb"), "-D", self.data,
+                       "-U", "postgres", "--auth=trust", "-E", "UTF8",
+                       "--no-sync"])
+        else:
+            # The primary's files as of a fast checkpoint (a spread one
+            # would take minutes), the WAL written meanwhile, and (-R)
+            # standby.signal with primary_conninfo: the server starts as a
+            # hot standby that replays the primary's WAL as it streams in.
+            # initdb's pg_hba.conf lets 127.0.0.1 replicate (trust).
+            self._run(self.as_postgres + env +
+                      [os.path.join(bindir, "pg_basebackup"), "-D",
+                       self.data, "-d", primary.conninfo(), "-R",
+                       "-X", "stream", "--checkpoint=fast", "--no-sync"])
         opts = "-c listen_addresses=127.0.0.1 -p %d -k %s -c fsync=off" % (
             self.port, self.sock)
         for s in settings:
@@ -154,15 +169,20 @@ class Cluster:
         return "host=127.0.0.1 port=%d user=postgres dbname=postgres" % \
             self.port
 
-    def sql(self, script, check=True):
+    def psql(self, db="postgres"):
+        """The psql command line for database db: unaligned rows without
+        headers, stopping at the first error."""
+        return [os.path.join(self.bindir, "psql"), "-X", "-q", "-A", "-t",
+                "-v", "ON_ERROR_STOP=1", "-h", self.sock, "-p",
+                str(self.port), "-U", "postgres", "-d", db]
+
+    def sql(self, script, check=True, db="postgres"):
         """Runs script through psql (stdin); returns rows of '|'-separated
         fields. With check=False returns (rows, stderr, returncode). Bytes
         that are not UTF-8 in psql's output come back as U+FFFD."""
-        out = subprocess.run(
-            [os.path.join(self.bindir, "psql"), "-X", "-q", "-A", "-t",
-             "-v", "ON_ERROR_STOP=1", "-h", self.sock, "-p", str(self.port),
-             "-U", "postgres", "-d", "postgres", "-f", "-"],
-            input=script, capture_output=True, text=True, errors="replace")
+        out = subprocess.run(self.psql(db) + ["-f", "-"], input=script,
+                             capture_output=True, text=True,
+                             errors="replace")
         rows = [line.split("|") for line in out.stdout.splitlines()]
         if check:
             if out.returncode != 0:
@@ -171,15 +191,67 @@ class Cluster:
             return rows
         return rows, out.stderr, out.returncode
 
-    def error(self, script):
+    def error(self, script, db="postgres"):
         """Runs script, which must fail; returns psql's stderr."""
-        rows, err, rc = self.sql(script, check=False)
+        rows, err, rc = self.sql(script, check=False, db=db)
         if rc == 0:
             raise AssertionError("no error from: " + script[:300])
         if "server closed the connection" in err or \
                 "terminated abnormally" in err:
             raise AssertionError("the backend crashed on: " + script[:300])
         return err
+
+
+class Session:
+    """One psql process on a pipe: a connection that lasts from script to
+    script, as a client's does. run(script) returns the script's rows once
+    it has run; send() and receive() split that, for a script to kill or
+    time from outside. An error ends the session (ON_ERROR_STOP): SQLError
+    with psql's stderr."""
+    END = "-- end of script --"
+
+    def __init__(self, cluster, db="postgres"):
+        self.proc = subprocess.Popen(cluster.psql(db), stdin=subprocess.PIPE,
+                                     stdout=subprocess.PIPE,
+                                     stderr=subprocess.PIPE, text=True)
+
+    def send(self, script):
+        try:
+            self.proc.stdin.write(script + "\n\\echo " + self.END + "\n")
+            self.proc.stdin.flush()
+        except BrokenPipeError:
+            self._failed()
+
+    def receive(self):
+        """The rows up to the end of the script sent: psql prints its end
+        mark only once every statement before it succeeded."""
+        rows = []
+        for line in iter(self.proc.stdout.readline, ""):
+            if line.rstrip("\n") == self.END:
+                return rows
+            rows.append(line.rstrip("\n").split("|"))
+        self._failed()
+
+    def run(self, script):
+        self.send(script)
+        return self.receive()
+
+    def _failed(self):
+        try:
+            self.proc.stdin.close()
+        except BrokenPipeError:
+            pass
+        err = self.proc.stderr.read()
+        self.proc.wait()
+        raise SQLError(err.strip() or "psql exited (%d)" %
+                       self.proc.returncode)
+
+    def close(self):
+        if self.proc.poll() is None:
+            self.proc.stdin.close()
+            self.proc.wait()
+        self.proc.stdout.close()
+        self.proc.stderr.close()
 
 
 def bumpy_sphere_off(path, seed, n=24):
@@ -251,15 +323,30 @@ def built_at(phks):
     return max(os.path.getmtime(p) for p in [phks] + lib)
 
 
-def signatures(phks, meshes, cache, extra_args=()):
+def small_meshes(workdir, count):
+    """count distinct small meshes (seeded bumpy spheres of 312 vertices,
+    0.1 s a signature, 4 to 8 features), as OFF files: many rows' worth of
+    signatures made in seconds."""
+    os.makedirs(workdir, exist_ok=True)
+    paths = []
+    for i in range(count):
+        p = os.path.join(workdir, "small%03d.off" % i)
+        if not os.path.exists(p):
+            bumpy_sphere_off(p, i, n=12)
+        paths.append(p)
+    return paths
+
+
+def signatures(phks, meshes, cache, extra_args=(), jobs=1):
     """The tool's signature blob of each mesh (phks signature MESH -o X),
     cached in cache/ under the mesh's base name, made again when the tool
-    or its library is newer. Returns the .sig paths."""
+    or its library is newer; jobs tool processes at a time. Returns the
+    .sig paths."""
     os.makedirs(cache, exist_ok=True)
     tag = "-".join(a.strip("-") for a in extra_args)
     newest = built_at(phks)
-    out = []
-    for m in meshes:
+
+    def make(m):
         base = os.path.basename(m).split(".")[0]
         sig = os.path.join(cache, base + (("-" + tag) if tag else "") +
                            ".sig")
@@ -271,8 +358,10 @@ def signatures(phks, meshes, cache, extra_args=()):
             if r.returncode != 0:
                 raise SystemExit("phks signature %s: %s" % (m, r.stderr))
             os.replace(sig + ".tmp", sig)
-        out.append(sig)
-    return out
+        return sig
+
+    with ThreadPoolExecutor(max_workers=jobs) as pool:
+        return list(pool.map(make, meshes))
 
 
 def hexfile(path):
