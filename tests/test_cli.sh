@@ -52,8 +52,8 @@ expect_err "^phks: --threads: threads 1025 above 1024$"
 run "$phks" signature a.off --threads; expect_rc 2 "--threads without value"
 
 # ---- --help of every command ----------------------------------------------------
-for cmd in signature match segment bench db "db add" "db query" "db list" \
-           "db info" "db remove"; do
+for cmd in signature match segment render bench db "db add" "db query" \
+           "db list" "db info" "db remove"; do
     for h in --help -h; do
         # shellcheck disable=SC2086 # "db add" is two words
         run "$phks" $cmd $h; expect_rc 0 "$cmd $h"
@@ -63,6 +63,7 @@ for cmd in signature match segment bench db "db add" "db query" "db list" \
 done
 run "$phks" --help; expect_out "(local-area)"; expect_out "--progress"
 expect_out "db info DB"; expect_out "-k K (10)"
+run "$phks" render --help; expect_out "--size WxH .*16..4096 pixels (480x360)"
 run "$phks" segment --help; expect_out "--regions N .*(15)"
 expect_out "--time T .*(5)"; expect_out "--ascii .*(binary little-endian)"
 run "$phks" db query --help; expect_out "-k K .*(10)"
