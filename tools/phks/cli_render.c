@@ -275,6 +275,11 @@ int cli_render(int argc, char **argv, const phks_options *options)
     int bad = parse_args(argc, argv, options, &a);
     if (bad)
         return bad;
+    /* The picture is a PNG whatever its name; under another one (.jpg)
+     * viewers and converters that go by the name misread it. */
+    if (!cli_has_suffix(a.out, ".png"))
+        return cli_error(a.out, "render writes PNG only: name the output "
+                                "OUT.png");
     if (!cli_png_supported())
         return cli_png_write(a.out, NULL);
     picture pic[2] = {{0}};
