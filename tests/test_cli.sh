@@ -70,6 +70,26 @@ run "$phks" db query --help; expect_out "-k K .*(10)"
 run "$phks" db add --help; expect_out "--allow-duplicates"
 run "$phks" bench --help; expect_out "--seeds N .*(1)"; expect_out "(psb/)"
 expect_out "--group NAME=A,B"
+# The overviews, `phks --help` and `phks db --help`, name every option of
+# each command's own --help.
+options_of() {
+    # shellcheck disable=SC2086 # "db add" is two words
+    "$phks" $1 --help | grep -oE '(^|[ [])--?[a-z][-a-z]*' |
+        sed 's/^[ [][ [:space:]]*//' | grep -vx -- '--help' | sort -u
+}
+"$phks" --help > overview
+"$phks" db --help > db_overview
+for cmd in signature match segment render bench "db add" "db query" "db list" \
+           "db info" "db remove"; do
+    for opt in $(options_of "$cmd"); do
+        grep -q -- "[[ ]$opt[] ]" overview ||
+            fail "phks --help lacks $cmd's $opt"
+        case $cmd in
+        db*) grep -q -- "[[ ]$opt[] ]" db_overview ||
+                 fail "phks db --help lacks $cmd's $opt" ;;
+        esac
+    done
+done
 
 # ---- signature --------------------------------------------------------------
 run "$phks" signature a.off -o a.sig; expect_rc 0 "signature"

@@ -29,7 +29,7 @@ static const char db_usage[] =
     "db add|query|list|info|remove DB ...\n"
     "  phks db add DB FILES|DIRS... [--label L] [-j N] [--allow-duplicates]\n"
     "  phks db add DB --manifest TSV [-j N] [--allow-duplicates]\n"
-    "  phks db query DB MESH|SIG [-k K (10)] [--json]\n"
+    "  phks db query DB MESH|SIG [-k K (10)] [--json] [--png OUT.png]\n"
     "  phks db list DB [--json]\n"
     "  phks db info DB [--json]\n"
     "  phks db remove DB ID...\n"
