@@ -314,6 +314,18 @@ assert all(f["position"][0] >= 3 for f in d["features"]), d' < out ||
     run "$phks" --object third signature two.gltf; expect_rc 1 \
         "--object third in glTF"
     expect_err "no node or mesh named third (it has: first, second, cubeA, cubeB)"
+    # A node and its mesh of one name, and two nodes of one name: each
+    # name listed once.
+    cat > same.gltf <<EOF
+$gltf_head
+"meshes":[{"name":"cube",$cube_primitive},{"name":"other",$cube_primitive}],
+"nodes":[{"name":"cube","mesh":0},
+         {"name":"cube","mesh":1,"translation":[3,0,0]}],
+"scenes":[{"nodes":[0,1]}]}
+EOF
+    run "$phks" --object third signature same.gltf; expect_rc 1 \
+        "--object third in a glTF of repeated names"
+    expect_err "^phks: same.gltf: no node or mesh named third (it has: cube, other)$"
     printf '{"asset":' > broken.gltf
     run "$phks" signature broken.gltf; expect_rc 1 "a broken glTF"
     expect_err "^phks: broken.gltf: assimp: "

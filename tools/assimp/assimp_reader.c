@@ -207,20 +207,54 @@ static void walk(gather *g, const struct aiNode *node, const double parent[16],
         walk(g, node->mChildren[i], world, selected);
 }
 
-/* The names of nodes with meshes, and of meshes, for "it has: ...". */
-static void list_names(const struct aiNode *node, char *buf, size_t size,
-                       size_t *at, int *count)
+/* The names --object can take, for "it has: ...": each once, since a
+ * node and its mesh often share a name, and so do nodes that place the
+ * same part. */
+typedef struct name_set {
+    const char *name[24];
+    size_t count;
+} name_set;
+
+static void name_set_add(name_set *s, const char *name, size_t limit)
 {
-    if (node->mNumMeshes && node->mName.length && *count < 12 &&
-        *at + 1 < size) {
-        int w = snprintf(buf + *at, size - *at, "%s%s", *count ? ", " : "",
-                         node->mName.data);
-        if (w > 0)
-            *at += (size_t)w < size - *at ? (size_t)w : size - *at - 1;
-        ++*count;
-    }
+    if (!*name || s->count >= limit)
+        return;
+    for (size_t i = 0; i < s->count; i++)
+        if (strcmp(s->name[i], name) == 0)
+            return;
+    s->name[s->count++] = name;
+}
+
+/* The nodes with meshes, the first 12, depth first. */
+static void add_node_names(const struct aiNode *node, name_set *s)
+{
+    if (node->mNumMeshes)
+        name_set_add(s, node->mName.data, 12);
     for (unsigned i = 0; i < node->mNumChildren; i++)
-        list_names(node->mChildren[i], buf, size, at, count);
+        add_node_names(node->mChildren[i], s);
+}
+
+/* "no node or mesh named NAME (it has: a, b, ...)" into err. */
+static void say_no_object(const struct aiScene *scene, const char *object,
+                          char *err, size_t err_size)
+{
+    name_set s = {{0}, 0};
+    char list[400];
+    size_t at = 0;
+    add_node_names(scene->mRootNode, &s);
+    for (unsigned i = 0; i < scene->mNumMeshes; i++)
+        name_set_add(&s, scene->mMeshes[i]->mName.data,
+                     sizeof s.name / sizeof s.name[0]);
+    list[0] = '\0';
+    for (size_t i = 0; i < s.count && at + 1 < sizeof list; i++) {
+        int w = snprintf(list + at, sizeof list - at, "%s%s", i ? ", " : "",
+                         s.name[i]);
+        if (w > 0)
+            at += (size_t)w < sizeof list - at ? (size_t)w
+                                               : sizeof list - at - 1;
+    }
+    snprintf(err, err_size, "no node or mesh named %s (it has: %s)", object,
+             s.count ? list : "no named meshes");
 }
 
 phks_status assimp_reader_load(const char *path, const char *object,
@@ -265,22 +299,7 @@ phks_status assimp_reader_load(const char *path, const char *object,
         snprintf(err, err_size, "more than 2^32 - 2 vertices");
         st = PHKS_ERROR_TOO_LARGE;
     } else if (object && !g.matched) {
-        char list[400];
-        size_t at = 0;
-        int count = 0;
-        list[0] = '\0';
-        list_names(scene->mRootNode, list, sizeof list, &at, &count);
-        for (unsigned i = 0; i < scene->mNumMeshes && count < 24; i++)
-            if (scene->mMeshes[i]->mName.length && at + 1 < sizeof list) {
-                int w = snprintf(list + at, sizeof list - at, "%s%s",
-                                 count++ ? ", " : "",
-                                 scene->mMeshes[i]->mName.data);
-                if (w > 0)
-                    at += (size_t)w < sizeof list - at ? (size_t)w
-                                                       : sizeof list - at - 1;
-            }
-        snprintf(err, err_size, "no node or mesh named %s (it has: %s)",
-                 object, count ? list : "no named meshes");
+        say_no_object(scene, object, err, err_size);
         st = PHKS_ERROR_INVALID_ARGUMENT;
     } else if (!g.nt) {
         snprintf(err, err_size, "no triangles in the scene%s%s",
