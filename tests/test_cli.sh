@@ -280,6 +280,9 @@ if grep -q "built without assimp" err; then
     expect_err "^phks: cube.gltf: built without assimp: cannot read .gltf$"
     run "$phks" signature cube.glb; expect_rc 1 "GLB without assimp"
     expect_err "built without assimp: cannot read .glb"
+    gzip -c cube.glb > cube.glb.gz
+    run "$phks" signature cube.glb.gz; expect_rc 1 "gzip'd GLB without assimp"
+    expect_err "^phks: cube.glb.gz: built without assimp: cannot read .glb$"
     echo "cli: built without assimp: the glTF checks are skipped"
 else
     expect_rc 0 "signature of cube.gltf"
@@ -298,6 +301,29 @@ assert d["vertices"] == 8 and d["triangles"] == 12, d' < out ||
     expect_out "8 vertices, 12 triangles"
     run "$phks" match glb.sig cube.off; expect_rc 0 "match GLB, OFF"
     expect_out "^score 0$"
+    # Compressed scenes: inflated, then read by assimp under the name
+    # without .gz, so that the files a scene refers to are found beside
+    # it (a glTF's .bin here, from another folder).
+    gzip -c cube.glb > cube.glb.gz
+    run "$phks" signature cube.glb.gz -o glbgz.sig; expect_rc 0 \
+        "signature of .glb.gz"
+    expect_out "8 vertices, 12 triangles"
+    run "$phks" match glbgz.sig cube.off; expect_rc 0 "match .glb.gz, OFF"
+    expect_out "^score 0$"
+    mkdir split
+    $py -c 'import base64, json
+d = json.load(open("cube.gltf"))
+b = d["buffers"][0]
+open("split/cube.bin", "wb").write(base64.b64decode(b["uri"].split(",")[1]))
+b["uri"] = "cube.bin"
+json.dump(d, open("split/cube.gltf", "w"))' || fail "writing split/cube.gltf"
+    gzip split/cube.gltf
+    (cd set && "$phks" signature ../split/cube.gltf.gz) >out 2>err; rc=$?
+    expect_rc 0 "signature of a .gltf.gz with its .bin beside it"
+    expect_out "8 vertices, 12 triangles"
+    head -c 200 cube.glb.gz > cut.glb.gz
+    run "$phks" signature cut.glb.gz; expect_rc 1 "a truncated .glb.gz"
+    expect_err "^phks: cut.glb.gz: gzip data: truncated"
     run "$phks" signature two.gltf; expect_rc 0 "signature of two meshes"
     expect_err "^phks: two.gltf: note: 2 meshes (first, second) merged into one shape; --object NAME reads one$"
     expect_out "16 vertices, 24 triangles"
@@ -329,11 +355,12 @@ EOF
     printf '{"asset":' > broken.gltf
     run "$phks" signature broken.gltf; expect_rc 1 "a broken glTF"
     expect_err "^phks: broken.gltf: assimp: "
-    mkdir scene && cp cube.gltf cube.off scene/
+    mkdir scene && cp cube.gltf cube.off cube.glb.gz scene/
     run "$phks" db add scene.db scene -j 1 --allow-duplicates; expect_rc 0 \
         "db add of a folder"
     run "$phks" db list scene.db; expect_rc 0 "db list"
     expect_out "scene/cube.gltf"; expect_out "scene/cube.off"
+    expect_out "scene/cube.glb.gz"
     run "$phks" signature nowhere.glb; expect_rc 1 "a missing GLB"
     expect_err "^phks: nowhere.glb: No such file"
 fi
