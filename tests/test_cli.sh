@@ -52,8 +52,8 @@ expect_err "^phks: --threads: threads 1025 above 1024$"
 run "$phks" signature a.off --threads; expect_rc 2 "--threads without value"
 
 # ---- --help of every command ----------------------------------------------------
-for cmd in signature match segment bench db "db add" "db query" "db list" \
-           "db info" "db remove"; do
+for cmd in signature match segment render bench db "db add" "db query" \
+           "db list" "db info" "db remove"; do
     for h in --help -h; do
         # shellcheck disable=SC2086 # "db add" is two words
         run "$phks" $cmd $h; expect_rc 0 "$cmd $h"
@@ -63,12 +63,33 @@ for cmd in signature match segment bench db "db add" "db query" "db list" \
 done
 run "$phks" --help; expect_out "(local-area)"; expect_out "--progress"
 expect_out "db info DB"; expect_out "-k K (10)"
+run "$phks" render --help; expect_out "--size WxH .*16..4096 pixels (480x360)"
 run "$phks" segment --help; expect_out "--regions N .*(15)"
 expect_out "--time T .*(5)"; expect_out "--ascii .*(binary little-endian)"
 run "$phks" db query --help; expect_out "-k K .*(10)"
 run "$phks" db add --help; expect_out "--allow-duplicates"
 run "$phks" bench --help; expect_out "--seeds N .*(1)"; expect_out "(psb/)"
 expect_out "--group NAME=A,B"
+# The overviews, `phks --help` and `phks db --help`, name every option of
+# each command's own --help.
+options_of() {
+    # shellcheck disable=SC2086 # "db add" is two words
+    "$phks" $1 --help | grep -oE '(^|[ [])--?[a-z][-a-z]*' |
+        sed 's/^[ [][ [:space:]]*//' | grep -vx -- '--help' | sort -u
+}
+"$phks" --help > overview
+"$phks" db --help > db_overview
+for cmd in signature match segment render bench "db add" "db query" "db list" \
+           "db info" "db remove"; do
+    for opt in $(options_of "$cmd"); do
+        grep -q -- "[[ ]$opt[] ]" overview ||
+            fail "phks --help lacks $cmd's $opt"
+        case $cmd in
+        db*) grep -q -- "[[ ]$opt[] ]" db_overview ||
+                 fail "phks db --help lacks $cmd's $opt" ;;
+        esac
+    done
+done
 
 # ---- signature --------------------------------------------------------------
 run "$phks" signature a.off -o a.sig; expect_rc 0 "signature"
@@ -259,6 +280,9 @@ if grep -q "built without assimp" err; then
     expect_err "^phks: cube.gltf: built without assimp: cannot read .gltf$"
     run "$phks" signature cube.glb; expect_rc 1 "GLB without assimp"
     expect_err "built without assimp: cannot read .glb"
+    gzip -c cube.glb > cube.glb.gz
+    run "$phks" signature cube.glb.gz; expect_rc 1 "gzip'd GLB without assimp"
+    expect_err "^phks: cube.glb.gz: built without assimp: cannot read .glb$"
     echo "cli: built without assimp: the glTF checks are skipped"
 else
     expect_rc 0 "signature of cube.gltf"
@@ -277,6 +301,29 @@ assert d["vertices"] == 8 and d["triangles"] == 12, d' < out ||
     expect_out "8 vertices, 12 triangles"
     run "$phks" match glb.sig cube.off; expect_rc 0 "match GLB, OFF"
     expect_out "^score 0$"
+    # Compressed scenes: inflated, then read by assimp under the name
+    # without .gz, so that the files a scene refers to are found beside
+    # it (a glTF's .bin here, from another folder).
+    gzip -c cube.glb > cube.glb.gz
+    run "$phks" signature cube.glb.gz -o glbgz.sig; expect_rc 0 \
+        "signature of .glb.gz"
+    expect_out "8 vertices, 12 triangles"
+    run "$phks" match glbgz.sig cube.off; expect_rc 0 "match .glb.gz, OFF"
+    expect_out "^score 0$"
+    mkdir split
+    $py -c 'import base64, json
+d = json.load(open("cube.gltf"))
+b = d["buffers"][0]
+open("split/cube.bin", "wb").write(base64.b64decode(b["uri"].split(",")[1]))
+b["uri"] = "cube.bin"
+json.dump(d, open("split/cube.gltf", "w"))' || fail "writing split/cube.gltf"
+    gzip split/cube.gltf
+    (cd set && "$phks" signature ../split/cube.gltf.gz) >out 2>err; rc=$?
+    expect_rc 0 "signature of a .gltf.gz with its .bin beside it"
+    expect_out "8 vertices, 12 triangles"
+    head -c 200 cube.glb.gz > cut.glb.gz
+    run "$phks" signature cut.glb.gz; expect_rc 1 "a truncated .glb.gz"
+    expect_err "^phks: cut.glb.gz: gzip data: truncated"
     run "$phks" signature two.gltf; expect_rc 0 "signature of two meshes"
     expect_err "^phks: two.gltf: note: 2 meshes (first, second) merged into one shape; --object NAME reads one$"
     expect_out "16 vertices, 24 triangles"
@@ -293,14 +340,27 @@ assert all(f["position"][0] >= 3 for f in d["features"]), d' < out ||
     run "$phks" --object third signature two.gltf; expect_rc 1 \
         "--object third in glTF"
     expect_err "no node or mesh named third (it has: first, second, cubeA, cubeB)"
+    # A node and its mesh of one name, and two nodes of one name: each
+    # name listed once.
+    cat > same.gltf <<EOF
+$gltf_head
+"meshes":[{"name":"cube",$cube_primitive},{"name":"other",$cube_primitive}],
+"nodes":[{"name":"cube","mesh":0},
+         {"name":"cube","mesh":1,"translation":[3,0,0]}],
+"scenes":[{"nodes":[0,1]}]}
+EOF
+    run "$phks" --object third signature same.gltf; expect_rc 1 \
+        "--object third in a glTF of repeated names"
+    expect_err "^phks: same.gltf: no node or mesh named third (it has: cube, other)$"
     printf '{"asset":' > broken.gltf
     run "$phks" signature broken.gltf; expect_rc 1 "a broken glTF"
     expect_err "^phks: broken.gltf: assimp: "
-    mkdir scene && cp cube.gltf cube.off scene/
+    mkdir scene && cp cube.gltf cube.off cube.glb.gz scene/
     run "$phks" db add scene.db scene -j 1 --allow-duplicates; expect_rc 0 \
         "db add of a folder"
     run "$phks" db list scene.db; expect_rc 0 "db list"
     expect_out "scene/cube.gltf"; expect_out "scene/cube.off"
+    expect_out "scene/cube.glb.gz"
     run "$phks" signature nowhere.glb; expect_rc 1 "a missing GLB"
     expect_err "^phks: nowhere.glb: No such file"
 fi

@@ -215,6 +215,37 @@ START_TEST(every_damage_is_refused)
 }
 END_TEST
 
+/* Too short for any format's header and checksum (56 bytes): truncated,
+ * whatever the format field holds, not "newer" (a user's "PHKSxxxxxxxx"
+ * read as format 30840); one that holds them with a newer format number is
+ * still refused as newer, as docs/formats.md promises. */
+START_TEST(short_blob_is_truncated_whatever_its_format)
+{
+    phks_signature *out;
+    static const char garbage[] = "PHKSxxxxxxxx";
+    ck_assert_int_eq(phks_signature_decode(garbage, 12, &out),
+                     PHKS_ERROR_TRUNCATED);
+    ck_assert_str_eq(phks_last_error_message(),
+                     "signature blob: 12 bytes, shorter than any format's "
+                     "header and checksum (56 bytes)");
+    phks_signature *sig = make(3, 8);
+    size_t size;
+    unsigned char *blob = encode(sig, &size);
+    blob[4] = 0xff; /* format 65535 */
+    blob[5] = 0xff;
+    for (size_t len = 8; len < 56; len++)
+        ck_assert_int_eq(phks_signature_decode(blob, len, &out),
+                         PHKS_ERROR_TRUNCATED);
+    ck_assert_int_eq(phks_signature_decode(blob, 56, &out),
+                     PHKS_ERROR_UNSUPPORTED_VERSION);
+    ck_assert_int_eq(phks_signature_decode(blob, size, &out),
+                     PHKS_ERROR_UNSUPPORTED_VERSION);
+    ck_assert_ptr_null(out);
+    phks_signature_free(sig);
+    free(blob);
+}
+END_TEST
+
 /* A blob with a valid checksum but impossible numbers (made by hand, as a
  * hostile writer would) is still refused. */
 START_TEST(valid_checksum_impossible_numbers)
@@ -329,6 +360,7 @@ int main(void)
     tcase_add_test(c, format_3_only_with_quadrature);
     tcase_add_test(c, small_buffer_reports_the_size);
     tcase_add_test(c, every_damage_is_refused);
+    tcase_add_test(c, short_blob_is_truncated_whatever_its_format);
     tcase_add_test(c, valid_checksum_impossible_numbers);
     tcase_add_test(c, incompatible_options_refuse_to_score);
     tcase_add_test(c, score_is_the_symmetric_nearest_sum);

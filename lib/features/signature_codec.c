@@ -18,7 +18,8 @@
  *   f32 geodesic[p (p - 1) / 2], the pairs i < j in the order j = 1..,
  *   i = 0..j-1
  *   u32 CRC-32 of every byte before it
- * A reader refuses a format number above its own rather than guess, and
+ * A reader refuses a format number above its own rather than guess
+ * (unless the blob is too short for any format: SMALLEST_BLOB), and
  * reads every older one: format 1 blobs predate the two format-2 fields and
  * were made with them zero, format 2 ones predate the quadrature (0, the
  * vertices'), format 3 ones the matching (0, the nearest). The writer
@@ -38,6 +39,11 @@
 #define FORMAT_3_FIELDS 4
 #define FORMAT_4_FIELDS 4
 #define FEATURE_FIXED (4 + 3 * 8 + 8)
+/* Every format, this library's and later ones, starts with format 1's
+ * header (later formats add their fields after it) and ends with the
+ * checksum: a blob shorter than both is cut short whatever number its
+ * format field holds, and is not taken for a newer format's. */
+#define SMALLEST_BLOB (HEADER_SIZE_1 + 4)
 
 static size_t header_size(unsigned format)
 {
@@ -266,6 +272,14 @@ static phks_status check_numbers(const phks_signature *sig)
     return PHKS_OK;
 }
 
+static phks_status too_short(size_t size)
+{
+    return phks__fail(PHKS_ERROR_TRUNCATED,
+                      "signature blob: %zu bytes, shorter than any format's "
+                      "header and checksum (%d bytes)",
+                      size, SMALLEST_BLOB);
+}
+
 phks_status phks_signature_decode(const void *buffer, size_t size,
                                   phks_signature **out)
 {
@@ -276,10 +290,11 @@ phks_status phks_signature_decode(const void *buffer, size_t size,
                          "phks_signature_decode: NULL argument");
     const unsigned char *start = buffer, *p = start;
     if (size < 8)
-        return phks__fail(PHKS_ERROR_TRUNCATED,
-                         "signature blob: %zu bytes, shorter than a header", size);
+        return too_short(size);
     if (memcmp(p, "PHKS", 4) != 0)
         return phks__fail(PHKS_ERROR_CORRUPT, "signature blob: bad magic bytes");
+    if (size < SMALLEST_BLOB)
+        return too_short(size);
     p += 4;
     uint16_t format = get_u16(&p), flags = get_u16(&p);
     if (format > FORMAT)

@@ -76,6 +76,29 @@ static PyObject *record_of(PyTypeObject *type, PyObject *fields[4])
     return record;
 }
 
+/* phks_db_open's failure, its message in Python's terms: the library
+ * names its C flag ("cannot open (missing? PHKS_DB_CREATE makes it)"),
+ * Python's users know the keywords. */
+static PyObject *raise_open_error(phks_status status, int readonly)
+{
+    static const char flag[] = "PHKS_DB_CREATE";
+    const char *keyword = readonly ? "create=True without readonly=True"
+                                   : "create=True";
+    const char *msg = phks_last_error_message();
+    const char *at = msg ? strstr(msg, flag) : NULL;
+    if (!at)
+        return raise_status(status);
+    size_t size = strlen(msg) + strlen(keyword) + 1;
+    char *reworded = PyMem_Malloc(size);
+    if (!reworded)
+        return PyErr_NoMemory();
+    snprintf(reworded, size, "%.*s%s%s", (int)(at - msg), msg, keyword,
+             at + strlen(flag));
+    raise_status_detail(status, reworded);
+    PyMem_Free(reworded);
+    return NULL;
+}
+
 static int Database_init(DatabaseObject *self, PyObject *args,
                          PyObject *kwargs)
 {
@@ -101,7 +124,7 @@ static int Database_init(DatabaseObject *self, PyObject *args,
     Py_END_ALLOW_THREADS
     if (st != PHKS_OK) {
         Py_DECREF(path);
-        raise_status(st);
+        raise_open_error(st, readonly);
         return -1;
     }
     self->db = db;

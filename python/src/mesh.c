@@ -54,27 +54,90 @@ static void Mesh_dealloc(MeshObject *self)
     Py_TYPE(self)->tp_free((PyObject *)self);
 }
 
+/* Mesh's argument `what` ("vertices") as an array of shape (k, 3), or NULL
+ * after an error that names the argument, what it must be (`expected`:
+ * "an (n, 3) array of numbers") and what it got: a TypeError for what is
+ * no array at all (None, a number), a ValueError for another shape or
+ * rows numpy cannot stack. numpy's own messages name no argument. */
+static PyArrayObject *rows_of_three(PyObject *obj, const char *what,
+                                    const char *expected)
+{
+    PyArrayObject *arr = obj == Py_None ? NULL
+                                        : (PyArrayObject *)PyArray_FROM_O(obj);
+    if (obj != Py_None && !arr) {
+        PyObject *type, *value, *trace;
+        PyErr_Fetch(&type, &value, &trace);
+        PyErr_Format(PyExc_ValueError, "Mesh: %s must be %s, got a %s "
+                     "numpy cannot make an array of (%S)", what, expected,
+                     Py_TYPE(obj)->tp_name, value ? value : Py_None);
+        Py_XDECREF(type);
+        Py_XDECREF(value);
+        Py_XDECREF(trace);
+        return NULL;
+    }
+    if (!arr || PyArray_NDIM(arr) == 0) {
+        PyErr_Format(PyExc_TypeError, "Mesh: %s must be %s, got %s", what,
+                     expected, obj == Py_None ? "None"
+                                              : Py_TYPE(obj)->tp_name);
+        Py_XDECREF(arr);
+        return NULL;
+    }
+    if (PyArray_NDIM(arr) != 2 || PyArray_DIM(arr, 1) != 3) {
+        PyObject *shape = PyArray_IntTupleFromIntp(PyArray_NDIM(arr),
+                                                   PyArray_DIMS(arr));
+        if (shape)
+            PyErr_Format(PyExc_ValueError, "Mesh: %s must be %s, got shape "
+                         "%S", what, expected, shape);
+        Py_XDECREF(shape);
+        Py_DECREF(arr);
+        return NULL;
+    }
+    return arr;
+}
+
+/* Says that arr (Mesh's argument `what`) holds other things than it must
+ * ("an array of complex128"): a TypeError; returns NULL. */
+static PyArrayObject *wrong_type(PyArrayObject *arr, const char *what,
+                                 const char *expected)
+{
+    PyErr_Format(PyExc_TypeError, "Mesh: %s must be %s, got an array of %S",
+                 what, expected, (PyObject *)PyArray_DESCR(arr));
+    Py_DECREF(arr);
+    return NULL;
+}
+
+/* vertices: any real numbers of shape (n, 3), as float64. */
+static PyArrayObject *convert_vertices(PyObject *vertices)
+{
+    static const char expected[] = "an (n, 3) array of numbers";
+    PyArrayObject *arr = rows_of_three(vertices, "vertices", expected);
+    if (!arr)
+        return NULL;
+    int type = PyArray_TYPE(arr);
+    if (!PyTypeNum_ISINTEGER(type) && !PyTypeNum_ISFLOAT(type))
+        return wrong_type(arr, "vertices", expected);
+    PyArrayObject *v = (PyArrayObject *)PyArray_FROMANY(
+        (PyObject *)arr, NPY_DOUBLE, 2, 2,
+        NPY_ARRAY_IN_ARRAY | NPY_ARRAY_FORCECAST);
+    Py_DECREF(arr);
+    return v;
+}
+
 /* faces: any integer array of shape (m, 3), into uint32 indices checked
  * here for what uint32 cannot hold (negative, above 2^32 - 1); the library
  * checks them against the vertex count. */
 static int convert_faces(PyObject *faces, uint32_t **out, size_t *count)
 {
+    static const char expected[] = "an (m, 3) array of integers";
     *out = NULL;
     *count = 0;
-    PyArrayObject *arr = (PyArrayObject *)PyArray_FROM_O(faces);
+    PyArrayObject *arr = rows_of_three(faces, "faces", expected);
     if (!arr)
         return -1;
-    if (PyArray_NDIM(arr) != 2 || PyArray_DIM(arr, 1) != 3) {
-        PyErr_SetString(PyExc_ValueError, "faces must have shape (m, 3)");
-        Py_DECREF(arr);
-        return -1;
-    }
     int type = PyArray_TYPE(arr);
     /* An empty list makes a float64 array: nothing to lose there. */
     if (PyArray_SIZE(arr) > 0 && !PyTypeNum_ISINTEGER(type)) {
-        PyErr_SetString(PyExc_TypeError,
-                        "faces must be an array of integers");
-        Py_DECREF(arr);
+        wrong_type(arr, "faces", expected);
         return -1;
     }
     /* Signed and unsigned inputs go through the 64-bit type of their
@@ -135,16 +198,9 @@ static PyObject *Mesh_new(PyTypeObject *type, PyObject *args,
     if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OO:Mesh", keywords,
                                      &vertices_obj, &faces_obj))
         return NULL;
-    /* float64 (n, 3); numpy refuses unsafe casts (complex, strings). */
-    PyArrayObject *v = (PyArrayObject *)PyArray_FROMANY(
-        vertices_obj, NPY_DOUBLE, 2, 2, NPY_ARRAY_IN_ARRAY);
+    PyArrayObject *v = convert_vertices(vertices_obj);
     if (!v)
         return NULL;
-    if (PyArray_DIM(v, 1) != 3) {
-        PyErr_SetString(PyExc_ValueError, "vertices must have shape (n, 3)");
-        Py_DECREF(v);
-        return NULL;
-    }
     uint32_t *tri;
     size_t tri_count;
     if (convert_faces(faces_obj, &tri, &tri_count) < 0) {

@@ -2,6 +2,7 @@
 test): the vertices are the meshes' in scene order, as in an OFF of the
 same arrays. Without assimp in the build, the refusal is checked."""
 import base64
+import gzip
 import json
 import struct
 
@@ -66,6 +67,22 @@ def test_gltf_gives_the_off_vertices(tmp_path, sphere):
     np.testing.assert_array_equal(b.triangles, a.triangles)
     np.testing.assert_array_equal(b.vertex_origin, a.vertex_origin)
     assert phks.score(phks.signature(a), phks.signature(b)) == 0
+
+
+@pytest.mark.skipif(not has_assimp, reason="built without assimp")
+def test_a_gzipped_gltf_reads_as_the_gltf(tmp_path, sphere):
+    write_gltf(tmp_path / "s.gltf", [("sphere", *sphere, None)])
+    packed = tmp_path / "s.gltf.gz"
+    packed.write_bytes(gzip.compress((tmp_path / "s.gltf").read_bytes()))
+    a, b = phks.load(tmp_path / "s.gltf"), phks.load(packed)
+    np.testing.assert_array_equal(b.vertices, a.vertices)
+    np.testing.assert_array_equal(b.triangles, a.triangles)
+    cut = tmp_path / "cut.gltf.gz"
+    cut.write_bytes(packed.read_bytes()[:100])
+    with pytest.raises(phks.Error) as e:
+        phks.load(cut)
+    assert e.value.status == phks.Status.TRUNCATED
+    assert "cut.gltf.gz: gzip data: truncated" in e.value.message
 
 
 @pytest.mark.skipif(not has_assimp, reason="built without assimp")

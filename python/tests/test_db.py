@@ -121,6 +121,13 @@ def test_open_errors(tmp_path):
     with pytest.raises(phks.Error) as e:
         phks.Database(tmp_path / "missing.db", create=False)
     assert e.value.status == phks.Status.IO
+    # In Python's terms, not the C flag's (PHKS_DB_CREATE).
+    assert "(missing? create=True makes it)" in e.value.message
+    assert "PHKS_" not in str(e.value)
+    with pytest.raises(phks.Error) as e:
+        phks.Database(tmp_path / "missing.db", readonly=True)
+    assert "(missing? create=True without readonly=True makes it)" in \
+        e.value.message
     not_db = tmp_path / "not.db"
     not_db.write_bytes(b"this is not an SQLite file" * 100)
     with pytest.raises(phks.Error) as e:

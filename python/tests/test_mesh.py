@@ -148,6 +148,33 @@ def test_argument_errors_are_python_errors():
         phks.load_memory(b"OFF", format="vrml")
 
 
+def test_argument_errors_name_the_argument_and_its_shape():
+    v, f = icosphere(0)
+    with pytest.raises(TypeError, match=r"^Mesh: vertices must be an "
+                       r"\(n, 3\) array of numbers, got None$"):
+        phks.Mesh(None, None)
+    with pytest.raises(ValueError, match=r"^Mesh: vertices must be an "
+                       r"\(n, 3\) array of numbers, got shape \(36,\)$"):
+        phks.Mesh(v.ravel(), f)
+    with pytest.raises(TypeError, match=r"^Mesh: faces must be an \(m, 3\) "
+                       r"array of integers, got None$"):
+        phks.Mesh(v, None)
+    with pytest.raises(ValueError, match=r"^Mesh: faces must be an \(m, 3\) "
+                       r"array of integers, got shape \(60,\)$"):
+        phks.Mesh(v, f.ravel())
+    with pytest.raises(TypeError, match=r"^Mesh: faces must be an \(m, 3\) "
+                       r"array of integers, got an array of float64$"):
+        phks.Mesh(v, f.astype(float))
+    with pytest.raises(TypeError, match=r"^Mesh: vertices must be an "
+                       r"\(n, 3\) array of numbers, got an array of "
+                       r"complex128$"):
+        phks.Mesh(v.astype(complex), f)
+    with pytest.raises(ValueError, match=r"^Mesh: vertices must be an "
+                       r"\(n, 3\) array of numbers, got a list numpy "
+                       r"cannot make an array of"):
+        phks.Mesh([[0, 0, 0], [1, 0]], f)
+
+
 def test_geodesic_distances_on_a_grid_follow_its_edges():
     # Cells of side h with one diagonal each, along +x+y: the shortest edge
     # path from the corner to column i, row j takes min(i, j) diagonals

@@ -126,6 +126,11 @@ def test_encode_decode(creature_mesh, creature_signature):
     assert e.value.status in (phks.Status.TRUNCATED, phks.Status.CORRUPT)
     with pytest.raises(TypeError):
         phks.decode("not bytes")
+    # Too short for any format's header: cut short, not "newer".
+    with pytest.raises(phks.Error) as e:
+        phks.decode(b"PHKSxxxxxxxx")
+    assert e.value.status == phks.Status.TRUNCATED
+    assert "12 bytes" in e.value.message and "newer" not in e.value.message
 
 
 def test_pickle_keeps_the_callers_numbering(creature_mesh,

@@ -12,10 +12,13 @@
 #include <strings.h>
 
 #ifdef PHKS_WITH_ASSIMP
+#include <assimp/cfileio.h>
 #include <assimp/cimport.h>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
+#include <limits.h>
 #include <pthread.h>
+#include <zlib.h>
 #endif
 
 static int has_suffix(const char *s, size_t n, const char *suffix)
@@ -24,13 +27,34 @@ static int has_suffix(const char *s, size_t n, const char *suffix)
     return n >= m && strncasecmp(s + n - m, suffix, m) == 0;
 }
 
-/* The extension of the file name, with its dot, or NULL. */
-static const char *extension(const char *path)
+static int is_gzip_name(const char *path)
+{
+    return has_suffix(path, strlen(path), ".gz");
+}
+
+/* A file name's extension is at most this long, with its dot (".md5mesh"
+ * is the longest of common[]). */
+#define EXTENSION_SIZE 16
+
+/* The extension of the file name with its dot, a final ".gz" left out
+ * ("shape.glb.gz" is ".glb"), into ext; 0 when it has none. */
+static int scene_extension(const char *path, char ext[EXTENSION_SIZE])
 {
     const char *slash = strrchr(path, '/');
     const char *name = slash ? slash + 1 : path;
-    const char *dot = strrchr(name, '.');
-    return dot && dot != name && dot[1] ? dot : NULL;
+    size_t n = strlen(name);
+    if (is_gzip_name(name))
+        n -= 3;
+    size_t dot = n;
+    while (dot > 1 && name[dot - 1] != '.')
+        dot--;
+    /* No dot past the first character (".glb" is a hidden file's name),
+     * nothing after it, or longer than any extension. */
+    if (dot <= 1 || dot == n || n - dot + 2 > EXTENSION_SIZE)
+        return 0;
+    memcpy(ext, name + dot - 1, n - dot + 1);
+    ext[n - dot + 1] = '\0';
+    return 1;
 }
 
 int assimp_reader_available(void)
@@ -52,8 +76,8 @@ static const char *const common[] = {
 
 int assimp_reader_common(const char *path)
 {
-    const char *ext = extension(path);
-    if (!ext)
+    char ext[EXTENSION_SIZE];
+    if (!scene_extension(path, ext))
         return 0;
     for (size_t i = 0; i < sizeof common / sizeof common[0]; i++)
         if (strcasecmp(ext, common[i]) == 0)
@@ -71,8 +95,8 @@ int assimp_reader_handles(const char *path)
         if (has_suffix(path, n, own[i]))
             return 0;
 #ifdef PHKS_WITH_ASSIMP
-    const char *ext = extension(path);
-    return ext && aiIsExtensionSupported(ext) == AI_TRUE;
+    char ext[EXTENSION_SIZE];
+    return scene_extension(path, ext) && aiIsExtensionSupported(ext) == AI_TRUE;
 #else
     return assimp_reader_common(path);
 #endif
@@ -207,20 +231,301 @@ static void walk(gather *g, const struct aiNode *node, const double parent[16],
         walk(g, node->mChildren[i], world, selected);
 }
 
-/* The names of nodes with meshes, and of meshes, for "it has: ...". */
-static void list_names(const struct aiNode *node, char *buf, size_t size,
-                       size_t *at, int *count)
+/* The names --object can take, for "it has: ...": each once, since a
+ * node and its mesh often share a name, and so do nodes that place the
+ * same part. */
+typedef struct name_set {
+    const char *name[24];
+    size_t count;
+} name_set;
+
+static void name_set_add(name_set *s, const char *name, size_t limit)
 {
-    if (node->mNumMeshes && node->mName.length && *count < 12 &&
-        *at + 1 < size) {
-        int w = snprintf(buf + *at, size - *at, "%s%s", *count ? ", " : "",
-                         node->mName.data);
-        if (w > 0)
-            *at += (size_t)w < size - *at ? (size_t)w : size - *at - 1;
-        ++*count;
-    }
+    if (!*name || s->count >= limit)
+        return;
+    for (size_t i = 0; i < s->count; i++)
+        if (strcmp(s->name[i], name) == 0)
+            return;
+    s->name[s->count++] = name;
+}
+
+/* The nodes with meshes, the first 12, depth first. */
+static void add_node_names(const struct aiNode *node, name_set *s)
+{
+    if (node->mNumMeshes)
+        name_set_add(s, node->mName.data, 12);
     for (unsigned i = 0; i < node->mNumChildren; i++)
-        list_names(node->mChildren[i], buf, size, at, count);
+        add_node_names(node->mChildren[i], s);
+}
+
+/* "no node or mesh named NAME (it has: a, b, ...)" into err. */
+static void say_no_object(const struct aiScene *scene, const char *object,
+                          char *err, size_t err_size)
+{
+    name_set s = {{0}, 0};
+    char list[400];
+    size_t at = 0;
+    add_node_names(scene->mRootNode, &s);
+    for (unsigned i = 0; i < scene->mNumMeshes; i++)
+        name_set_add(&s, scene->mMeshes[i]->mName.data,
+                     sizeof s.name / sizeof s.name[0]);
+    list[0] = '\0';
+    for (size_t i = 0; i < s.count && at + 1 < sizeof list; i++) {
+        int w = snprintf(list + at, sizeof list - at, "%s%s", i ? ", " : "",
+                         s.name[i]);
+        if (w > 0)
+            at += (size_t)w < sizeof list - at ? (size_t)w
+                                               : sizeof list - at - 1;
+    }
+    snprintf(err, err_size, "no node or mesh named %s (it has: %s)", object,
+             s.count ? list : "no named meshes");
+}
+
+/* phks.h's promise for the library's own gzip'd files holds here too: a
+ * file inflates to 2 GiB at most. */
+#define INFLATED_LIMIT ((size_t)1 << 31)
+
+/* Grows *data (capacity *cap, at most max) so that it holds more bytes
+ * than `used` (below max); 0, or -1 when out of memory. */
+static int grow_bytes(unsigned char **data, size_t *cap, size_t used,
+                      size_t max)
+{
+    if (used < *cap)
+        return 0;
+    size_t cap2 = *cap ? 2 * *cap : (size_t)1 << 16;
+    if (cap2 > max)
+        cap2 = max;
+    unsigned char *bigger = realloc(*data, cap2);
+    if (!bigger)
+        return -1;
+    *data = bigger;
+    *cap = cap2;
+    return 0;
+}
+
+/* The file at path into a new buffer (free it, also on failure):
+ * inflated when it is gzip'd (every member, as gzip -d does), as it is
+ * otherwise (zlib reads such files through). PHKS_OK, or a status and the
+ * reason in err. */
+static phks_status inflate_file(const char *path, unsigned char **data,
+                                size_t *size, char *err, size_t err_size)
+{
+    size_t cap = 0;
+    *data = NULL;
+    *size = 0;
+    errno = 0;  /* gzopen sets it only when the file cannot be opened */
+    gzFile z = gzopen(path, "rb");
+    if (!z) {
+        snprintf(err, err_size, "%s", errno ? strerror(errno)
+                                            : "out of memory");
+        return errno ? PHKS_ERROR_IO : PHKS_ERROR_OUT_OF_MEMORY;
+    }
+    phks_status st = PHKS_OK;
+    for (;;) {
+        /* One byte past the limit tells a file at it from one above. */
+        if (*size > INFLATED_LIMIT) {
+            snprintf(err, err_size, "gzip data inflates to more than %zu "
+                     "bytes", INFLATED_LIMIT);
+            st = PHKS_ERROR_TOO_LARGE;
+            break;
+        }
+        if (grow_bytes(data, &cap, *size, INFLATED_LIMIT + 1) != 0) {
+            snprintf(err, err_size, "out of memory inflating the gzip data");
+            st = PHKS_ERROR_OUT_OF_MEMORY;
+            break;
+        }
+        size_t room = cap - *size;
+        int n = gzread(z, *data + *size, room > INT_MAX ? INT_MAX
+                                                        : (unsigned)room);
+        if (n < 0) {
+            int code = Z_OK;
+            const char *why = gzerror(z, &code);
+            size_t named = strlen(path);  /* zlib says "PATH: reason" */
+            if (strncmp(why, path, named) == 0 && why[named] == ':')
+                why += named + (why[named + 1] == ' ' ? 2 : 1);
+            snprintf(err, err_size, "gzip data: %s",
+                     code == Z_ERRNO ? strerror(errno) : why);
+            st = code == Z_ERRNO ? PHKS_ERROR_IO : PHKS_ERROR_PARSE;
+            break;
+        }
+        if (n == 0)
+            break;
+        *size += (size_t)n;
+    }
+    /* gzread ends quietly at the end of a file cut inside a member; only
+     * gzclose tells. */
+    if (gzclose_r(z) == Z_BUF_ERROR && st == PHKS_OK) {
+        snprintf(err, err_size, "gzip data: truncated (the file ends "
+                                "inside a compressed stream)");
+        st = PHKS_ERROR_TRUNCATED;
+    }
+    return st;
+}
+
+/* A compressed scene is read through this file system (assimp's
+ * aiFileIO), under its name without ".gz": that name opens the inflated
+ * bytes, any other the file itself, read whole (and inflated when it is
+ * gzip'd too), so that the files a scene refers to (a glTF's .bin) are
+ * found beside it as for an uncompressed one. aiImportFileFromMemory
+ * would look for them in the current folder. */
+typedef struct inflated_scene {
+    const char *name;  /* the path without ".gz" */
+    const unsigned char *data;
+    size_t size;
+} inflated_scene;
+
+typedef struct memory_file {
+    const unsigned char *data;
+    size_t size, at;
+    unsigned char *owned;  /* data, when read for this file */
+} memory_file;
+
+static memory_file *memory_of(struct aiFile *file)
+{
+    return (memory_file *)(void *)file->UserData;
+}
+
+static size_t memory_read(struct aiFile *file, char *buffer, size_t size,
+                          size_t count)
+{
+    memory_file *m = memory_of(file);
+    size_t left = (m->size - m->at) / (size ? size : 1);
+    size_t n = size ? (count < left ? count : left) : 0;
+    memcpy(buffer, m->data + m->at, n * size);
+    m->at += n * size;
+    return n;
+}
+
+static size_t memory_write(struct aiFile *file, const char *buffer,
+                           size_t size, size_t count)
+{
+    (void)file, (void)buffer, (void)size, (void)count;
+    return 0;
+}
+
+static size_t memory_tell(struct aiFile *file)
+{
+    return memory_of(file)->at;
+}
+
+static size_t memory_size(struct aiFile *file)
+{
+    return memory_of(file)->size;
+}
+
+static void memory_flush(struct aiFile *file)
+{
+    (void)file;
+}
+
+/* assimp passes a backward offset as a size_t that wraps around. */
+static enum aiReturn memory_seek(struct aiFile *file, size_t offset,
+                                 enum aiOrigin origin)
+{
+    memory_file *m = memory_of(file);
+    size_t base = origin == aiOrigin_SET   ? 0
+                  : origin == aiOrigin_CUR ? m->at
+                                           : m->size;
+    size_t to = base + offset;
+    if (to > m->size)
+        return aiReturn_FAILURE;
+    m->at = to;
+    return aiReturn_SUCCESS;
+}
+
+static struct aiFile *memory_open(struct aiFileIO *io, const char *name,
+                                  const char *mode)
+{
+    const inflated_scene *scene = (const inflated_scene *)(void *)io->UserData;
+    struct aiFile *file = calloc(1, sizeof *file);
+    memory_file *m = calloc(1, sizeof *m);
+    char err[256];
+    int ok = file && m && !strpbrk(mode, "wa+");
+    if (ok && strcmp(name, scene->name) == 0) {
+        m->data = scene->data;
+        m->size = scene->size;
+    } else if (ok) {
+        ok = inflate_file(name, &m->owned, &m->size, err, sizeof err) ==
+             PHKS_OK;
+        m->data = m->owned;
+    }
+    if (!ok) {
+        if (m)
+            free(m->owned);
+        free(m);
+        free(file);
+        return NULL;
+    }
+    *file = (struct aiFile){memory_read, memory_write, memory_tell,
+                            memory_size, memory_seek, memory_flush,
+                            (aiUserData)(void *)m};
+    return file;
+}
+
+static void memory_close(struct aiFileIO *io, struct aiFile *file)
+{
+    (void)io;
+    free(memory_of(file)->owned);
+    free(memory_of(file));
+    free(file);
+}
+
+/* assimp's steps after reading: triangles only, and identical vertices
+ * joined (assimp_reader.h, vertex numbering). */
+#define IMPORT_STEPS (aiProcess_Triangulate | aiProcess_JoinIdenticalVertices)
+
+/* The gzip'd scene at path, inflated and read under its name without
+ * ".gz" (inflated_scene); NULL with a status and the reason in err
+ * (assimp's left in aiGetErrorString). Call under import_lock. */
+static const struct aiScene *import_compressed(const char *path,
+                                               phks_status *st, char *err,
+                                               size_t err_size)
+{
+    size_t n = strlen(path) - 3;
+    char *name = malloc(n + 1);
+    inflated_scene scene_file = {name, NULL, 0};
+    unsigned char *data = NULL;
+    if (!name) {
+        snprintf(err, err_size, "out of memory");
+        *st = PHKS_ERROR_OUT_OF_MEMORY;
+        return NULL;
+    }
+    memcpy(name, path, n);
+    name[n] = '\0';
+    const struct aiScene *scene = NULL;
+    *st = inflate_file(path, &data, &scene_file.size, err, err_size);
+    if (*st == PHKS_OK) {
+        struct aiFileIO io = {memory_open, memory_close,
+                              (aiUserData)(void *)&scene_file};
+        scene_file.data = data;
+        scene = aiImportFileEx(name, IMPORT_STEPS, &io);
+    }
+    free(data);
+    free(name);
+    return scene;
+}
+
+/* The scene of the file at path (gzip'd or not), or NULL with a status and
+ * the reason in err. */
+static const struct aiScene *import_scene(const char *path, phks_status *st,
+                                          char *err, size_t err_size)
+{
+    *st = PHKS_OK;
+    pthread_mutex_lock(&import_lock);
+    const struct aiScene *scene =
+        is_gzip_name(path) ? import_compressed(path, st, err, err_size)
+                           : aiImportFile(path, IMPORT_STEPS);
+    if (*st == PHKS_OK && (!scene || !scene->mRootNode)) {
+        const char *why = aiGetErrorString();
+        snprintf(err, err_size, "assimp: %s",
+                 why && *why ? why : "no scene in the file");
+        if (scene)
+            aiReleaseImport(scene);
+        scene = NULL;
+        *st = PHKS_ERROR_PARSE;
+    }
+    pthread_mutex_unlock(&import_lock);
+    return scene;
 }
 
 phks_status assimp_reader_load(const char *path, const char *object,
@@ -236,19 +541,10 @@ phks_status assimp_reader_load(const char *path, const char *object,
         return PHKS_ERROR_IO;
     }
     fclose(f);
-    pthread_mutex_lock(&import_lock);
-    const struct aiScene *scene = aiImportFile(path,
-        aiProcess_Triangulate | aiProcess_JoinIdenticalVertices);
-    if (!scene || !scene->mRootNode) {
-        const char *why = aiGetErrorString();
-        snprintf(err, err_size, "assimp: %s",
-                 why && *why ? why : "no scene in the file");
-        if (scene)
-            aiReleaseImport(scene);
-        pthread_mutex_unlock(&import_lock);
-        return PHKS_ERROR_PARSE;
-    }
-    pthread_mutex_unlock(&import_lock);
+    phks_status st;
+    const struct aiScene *scene = import_scene(path, &st, err, err_size);
+    if (!scene)
+        return st;
 
     char names[512];
     names[0] = '\0';
@@ -257,7 +553,6 @@ phks_status assimp_reader_load(const char *path, const char *object,
     static const double identity[16] = {1, 0, 0, 0, 0, 1, 0, 0,
                                         0, 0, 1, 0, 0, 0, 0, 1};
     walk(&g, scene->mRootNode, identity, 0);
-    phks_status st = PHKS_OK;
     if (g.no_memory) {
         snprintf(err, err_size, "out of memory");
         st = PHKS_ERROR_OUT_OF_MEMORY;
@@ -265,22 +560,7 @@ phks_status assimp_reader_load(const char *path, const char *object,
         snprintf(err, err_size, "more than 2^32 - 2 vertices");
         st = PHKS_ERROR_TOO_LARGE;
     } else if (object && !g.matched) {
-        char list[400];
-        size_t at = 0;
-        int count = 0;
-        list[0] = '\0';
-        list_names(scene->mRootNode, list, sizeof list, &at, &count);
-        for (unsigned i = 0; i < scene->mNumMeshes && count < 24; i++)
-            if (scene->mMeshes[i]->mName.length && at + 1 < sizeof list) {
-                int w = snprintf(list + at, sizeof list - at, "%s%s",
-                                 count++ ? ", " : "",
-                                 scene->mMeshes[i]->mName.data);
-                if (w > 0)
-                    at += (size_t)w < sizeof list - at ? (size_t)w
-                                                       : sizeof list - at - 1;
-            }
-        snprintf(err, err_size, "no node or mesh named %s (it has: %s)",
-                 object, count ? list : "no named meshes");
+        say_no_object(scene, object, err, err_size);
         st = PHKS_ERROR_INVALID_ARGUMENT;
     } else if (!g.nt) {
         snprintf(err, err_size, "no triangles in the scene%s%s",
@@ -312,9 +592,9 @@ phks_status assimp_reader_load(const char *path, const char *object,
     *mesh = NULL;
     if (note && note_size)
         note[0] = '\0';
-    const char *ext = extension(path);
+    char ext[EXTENSION_SIZE];
     snprintf(err, err_size, "built without assimp: cannot read %s",
-             ext ? ext : "this format");
+             scene_extension(path, ext) ? ext : "this format");
     return PHKS_ERROR_UNKNOWN_FORMAT;
 }
 

@@ -6,7 +6,9 @@
  * `phks` tool and into the Python module (tools/assimp/meson.build), and
  * depends on the public header only. Built with -DPHKS_WITH_ASSIMP when meson finds
  * assimp; without it, the formats are recognised by their extension and
- * refused with "built without assimp: cannot read .EXT".
+ * refused with "built without assimp: cannot read .EXT". A gzip'd scene
+ * ("shape.glb.gz") is inflated here (to 2 GiB at most) and read under its
+ * name without ".gz", the files it refers to found beside it.
  *
  * Vertex numbering: the vertices of the scene's meshes concatenated, in
  * scene order (the node tree depth first, parents before children, each
@@ -25,14 +27,15 @@
 /* 1 when the build has assimp. */
 int assimp_reader_available(void);
 /* 1 when path is for assimp: its extension is none of the library's own
- * (.off, .obj, .ply, .stl, each optionally followed by .gz) and names a
- * format that assimp reads (without assimp: assimp_reader_common, so that the
- * refusal can say why). Other names stay with phks_mesh_load,
- * which recognises the content. */
+ * (.off, .obj, .ply, .stl, each optionally followed by .gz) and names,
+ * before a final .gz if any, a format that assimp reads (without assimp:
+ * assimp_reader_common, so that the refusal can say why). Other names stay
+ * with phks_mesh_load, which recognises the content. */
 int assimp_reader_handles(const char *path);
 /* 1 when path ends in the extension of one of assimp's common formats
  * (.gltf, .glb, .fbx, .dae, .3ds, .x3d, .blend, ...: the list in
- * assimp_reader.c), whether or not the build has assimp. */
+ * assimp_reader.c), optionally followed by .gz, whether or not the build
+ * has assimp. */
 int assimp_reader_common(const char *path);
 /* Reads the scene at path into *mesh: all its meshes merged into one shape,
  * or, with `object`, those of the nodes named so (and of their children)
@@ -40,7 +43,9 @@ int assimp_reader_common(const char *path);
  * not NULL) gets "N meshes (a, b, ...) merged into one shape" when several
  * were merged without `object`, else "". On failure a status (PHKS_ERROR_IO,
  * PHKS_ERROR_UNKNOWN_FORMAT without assimp, PHKS_ERROR_PARSE for assimp's
- * refusals, PHKS_ERROR_INVALID_ARGUMENT for an unknown `object`,
+ * and zlib's refusals, PHKS_ERROR_TRUNCATED for a gzip'd file cut short,
+ * PHKS_ERROR_TOO_LARGE for one that inflates past 2 GiB,
+ * PHKS_ERROR_INVALID_ARGUMENT for an unknown `object`,
  * PHKS_ERROR_NO_TRIANGLES, or phks_mesh_create's) and the reason, without
  * the file's name, in err. */
 phks_status assimp_reader_load(const char *path, const char *object,

@@ -29,7 +29,7 @@ static const char db_usage[] =
     "db add|query|list|info|remove DB ...\n"
     "  phks db add DB FILES|DIRS... [--label L] [-j N] [--allow-duplicates]\n"
     "  phks db add DB --manifest TSV [-j N] [--allow-duplicates]\n"
-    "  phks db query DB MESH|SIG [-k K (10)] [--json]\n"
+    "  phks db query DB MESH|SIG [-k K (10)] [--json] [--png OUT.png]\n"
     "  phks db list DB [--json]\n"
     "  phks db info DB [--json]\n"
     "  phks db remove DB ID...\n"
@@ -69,6 +69,9 @@ static int db_query(int argc, char **argv, const phks_options *defaults)
     if (cli_parse(argc, argv, 1, opts, 3, &n) != 0 || n != 2 ||
         cli_parse_count(k_text, 1, 1000000, &k) != 0)
         return cli_usage(query_usage);
+    if (png && !cli_has_suffix(png, ".png"))  /* as render's -o */
+        return cli_error(png, "--png writes PNG only: name the contact "
+                              "sheet OUT.png");
     if (png && !cli_png_supported())
         return cli_png_write(png, NULL);  /* "built without PNG support" */
     phks_db *db;

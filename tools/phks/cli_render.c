@@ -23,31 +23,121 @@ typedef struct picture {
     size_t regions;
 } picture;
 
-/* Parses "WxH" (each 16..4096); 0, or -1. */
-static int parse_size(const char *text, int *w, int *h)
+static const char usage[] =
+    "render MESH [MESH_B] -o OUT.png [--size WxH] [--regions N] [--time T]\n"
+    "  -o OUT.png     the PNG to write (required; only PNG is written)\n"
+    "  MESH_B         a second mesh, drawn beside MESH, each feature of MESH\n"
+    "                 joined to its nearest feature of MESH_B\n"
+    "  --size WxH     each mesh's tile, each side 16..4096 pixels (480x360)\n"
+    "  --regions N    at most N regions, 1..100000 (15)\n"
+    "  --time T       HKS time in units of tau, 0..1e9 (5)\n"
+    "  global options: see `phks --help`";
+
+/* The tile's sides. Below 16 pixels the feature markers (9 pixels across
+ * at their smallest) would cover the shape; a 4096 x 4096 tile, drawn at
+ * one sample per pixel (cli_view.c), takes 235 MB for its z-buffer,
+ * samples and pixels. */
+#define TILE_MIN 16
+#define TILE_MAX 4096
+
+typedef struct render_args {
+    const char *out;
+    int meshes;  /* 1 or 2: argv[1], argv[2] */
+    int width, height;
+    unsigned long regions;
+    double time;
+} render_args;
+
+/* Prints "phks: what: reason" and the usage; returns 2. */
+static int refuse(const char *what, const char *reason)
 {
-    char *end;
-    if (!text || *text < '0' || *text > '9')
-        return -1;
-    unsigned long a = strtoul(text, &end, 10);
-    if (*end != 'x' || end[1] < '0' || end[1] > '9')
-        return -1;
-    unsigned long b = strtoul(end + 1, &end, 10);
-    if (*end || a < 16 || b < 16 || a > 4096 || b > 4096)
-        return -1;
-    *w = (int)a;
-    *h = (int)b;
+    cli_error(what, reason);
+    return cli_usage(usage);
+}
+
+/* --size "WxH" into a; 0, or 2 after saying what is wrong. */
+static int parse_size(const char *text, render_args *a)
+{
+    char *end, reason[256];
+    unsigned long w = 0, h = 0;
+    int shaped = *text >= '0' && *text <= '9';
+    if (shaped) {
+        w = strtoul(text, &end, 10);
+        shaped = *end == 'x' && end[1] >= '0' && end[1] <= '9';
+    }
+    if (shaped) {
+        h = strtoul(end + 1, &end, 10);
+        shaped = !*end;
+    }
+    if (!shaped) {
+        snprintf(reason, sizeof reason,
+                 "'%s' is not WIDTHxHEIGHT in pixels (as 480x360)", text);
+        return refuse("--size", reason);
+    }
+    if (w < TILE_MIN || h < TILE_MIN || w > TILE_MAX || h > TILE_MAX) {
+        snprintf(reason, sizeof reason,
+                 "%s: each side must be %d to %d pixels (below %d the "
+                 "feature markers would cover the shape; a %dx%d tile "
+                 "already takes 235 MB to draw)",
+                 text, TILE_MIN, TILE_MAX, TILE_MIN, TILE_MAX, TILE_MAX);
+        return refuse("--size", reason);
+    }
+    a->width = (int)w;
+    a->height = (int)h;
     return 0;
 }
 
-/* A time in units of tau, 0..1e9; 0, or -1. */
-static int parse_time(const char *text, double *time)
+/* --regions N into a; 0, or 2 after saying what is wrong. */
+static int parse_regions(const char *text, render_args *a)
 {
-    char *end;
+    char reason[160];
+    if (cli_parse_count(text, 1, 100000, &a->regions) == 0)
+        return 0;
+    snprintf(reason, sizeof reason,
+             "'%s' is not a whole number of regions from 1 to 100000", text);
+    return refuse("--regions", reason);
+}
+
+/* --time T, in units of tau, into a; 0, or 2 after saying what is
+ * wrong. */
+static int parse_time(const char *text, render_args *a)
+{
+    char *end, reason[160];
     double t = strtod(text, &end);
-    if (end == text || *end || !(t >= 0 && t <= 1e9))
-        return -1;
-    *time = t;
+    if (end != text && !*end && t >= 0 && t <= 1e9) {
+        a->time = t;
+        return 0;
+    }
+    snprintf(reason, sizeof reason,
+             "'%s' is not a time from 0 to 1e9 (in units of tau)", text);
+    return refuse("--time", reason);
+}
+
+/* render's command line into a (the meshes moved to argv[1..]): 0, or 2
+ * after saying what is wrong. The defaults are the signature's own
+ * feature_count and feature_scale. */
+static int parse_args(int argc, char **argv, const phks_options *options,
+                      render_args *a)
+{
+    const char *size = "480x360", *regions = NULL, *time = NULL;
+    const cli_opt opts[] = {{"-o", &a->out, NULL}, {"--size", &size, NULL},
+                            {"--regions", &regions, NULL},
+                            {"--time", &time, NULL}};
+    a->out = NULL;
+    a->regions = options->feature_count;
+    a->time = options->feature_scale;
+    if (cli_parse(argc, argv, 1, opts, 4, &a->meshes) != 0)
+        return cli_usage(usage);
+    if (a->meshes < 1)
+        return refuse("render", "no mesh to draw");
+    if (a->meshes > 2)
+        return refuse("render", "more than two meshes: render draws one, "
+                                "or two side by side");
+    if (!a->out)
+        return refuse("render", "no output: -o OUT.png names the picture");
+    if (parse_size(size, a) != 0 || (regions && parse_regions(regions, a)) ||
+        (time && parse_time(time, a)))
+        return 2;
     return 0;
 }
 
@@ -179,28 +269,22 @@ static int draw_match(cli_image *im, const picture pic[2], double *score)
 
 int cli_render(int argc, char **argv, const phks_options *options)
 {
-    static const char usage[] =
-        "render MESH [MESH_B] -o OUT.png [--size WxH] [--regions N] "
-        "[--time T]";
-    const char *out = NULL, *size = "480x360", *regions_text = NULL,
-               *time_text = NULL;
-    const cli_opt opts[] = {{"-o", &out, NULL}, {"--size", &size, NULL},
-                            {"--regions", &regions_text, NULL},
-                            {"--time", &time_text, NULL}};
-    int n, w, h;
-    unsigned long regions = options->feature_count;
-    double time = options->feature_scale;
-    if (cli_parse(argc, argv, 1, opts, 4, &n) != 0 || n < 1 || n > 2 || !out ||
-        parse_size(size, &w, &h) != 0 ||
-        (regions_text &&
-         cli_parse_count(regions_text, 1, 100000, &regions) != 0) ||
-        (time_text && parse_time(time_text, &time) != 0))
-        return cli_usage(usage);
+    render_args a;
+    if (cli_help(argc, argv, usage))
+        return 0;
+    int bad = parse_args(argc, argv, options, &a);
+    if (bad)
+        return bad;
+    /* The picture is a PNG whatever its name; under another one (.jpg)
+     * viewers and converters that go by the name misread it. */
+    if (!cli_has_suffix(a.out, ".png"))
+        return cli_error(a.out, "render writes PNG only: name the output "
+                                "OUT.png");
     if (!cli_png_supported())
-        return cli_png_write(out, NULL);
+        return cli_png_write(a.out, NULL);
     picture pic[2] = {{0}};
     int rc = 0;
-    for (int i = 0; i < n && rc == 0; i++) {
+    for (int i = 0; i < a.meshes && rc == 0; i++) {
         pic[i].path = argv[1 + i];
         if (cli_is_blob(pic[i].path)) {
             rc = cli_error(pic[i].path, "a signature blob: no mesh to draw");
@@ -210,31 +294,31 @@ int cli_render(int argc, char **argv, const phks_options *options)
             rc = 1;
             break;
         }
-        phks_status st = compute(&pic[i], options, regions, time);
+        phks_status st = compute(&pic[i], options, a.regions, a.time);
         if (st != PHKS_OK)
             rc = cli_fail(pic[i].path, st);
     }
     cli_image im = {0};
     double score = 0;
-    if (rc == 0 && cli_image_init(&im, n * w, h) != 0)
-        rc = cli_error(out, "out of memory");
+    if (rc == 0 && cli_image_init(&im, a.meshes * a.width, a.height) != 0)
+        rc = cli_error(a.out, "out of memory");
     if (rc == 0) {
-        int drawn = n == 1 ? draw_one(&im, &pic[0]) : draw_match(&im, pic, &score);
-        rc = drawn < 0 ? cli_error(out, "out of memory") : drawn;
+        int drawn = a.meshes == 1 ? draw_one(&im, &pic[0]) : draw_match(&im, pic, &score);
+        rc = drawn < 0 ? cli_error(a.out, "out of memory") : drawn;
     }
     if (rc == 0)
-        rc = cli_png_write(out, &im);
+        rc = cli_png_write(a.out, &im);
     if (rc == 0) {
-        for (int i = 0; i < n; i++)
+        for (int i = 0; i < a.meshes; i++)
             printf("%s: %zu regions of HKS at t = %g tau, %zu features\n",
-                   pic[i].path, pic[i].regions, time,
+                   pic[i].path, pic[i].regions, a.time,
                    phks_signature_feature_count(pic[i].sig));
-        if (n == 2)
+        if (a.meshes == 2)
             printf("score %g\n", score);
-        printf("wrote %s (%dx%d)\n", out, im.width, im.height);
+        printf("wrote %s (%dx%d)\n", a.out, im.width, im.height);
     }
     cli_image_free(&im);
-    for (int i = 0; i < n; i++)
+    for (int i = 0; i < a.meshes; i++)
         picture_free(&pic[i]);
     return rc;
 }

@@ -14,7 +14,6 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-#include <strings.h>
 
 static const char usage[] =
     "segment MESH -o OUT.ply [--regions N] [--time T] [--ascii] [--json]\n"
@@ -293,12 +292,6 @@ static void json_regions(const char *path, const char *out,
     free(faces);
 }
 
-static int is_ply_name(const char *path)
-{
-    size_t n = strlen(path);
-    return n > 4 && strcasecmp(path + n - 4, ".ply") == 0;
-}
-
 int cli_segment(int argc, char **argv, const phks_options *options)
 {
     const char *out = NULL, *regions_text = "15", *time_text = "5";
@@ -318,7 +311,7 @@ int cli_segment(int argc, char **argv, const phks_options *options)
     double time = strtod(time_text, &end);
     if (end == time_text || *end || !(time > 0 && time < 1e12))
         return cli_usage(usage);
-    if (!is_ply_name(out))
+    if (!cli_has_suffix(out, ".ply"))
         return cli_error(out, "segment writes PLY only: name the output "
                               "OUT.ply");
     phks_mesh *mesh;

@@ -45,6 +45,9 @@ static const char usage_text[] =
     "  phks bench MANIFEST [--prefix P (psb/)] [--classes A,B (all)]\n"
     "             [--max-per-class M (all)] [--seeds N (1)] [--cache DIR]\n"
     "             [--queries-out TSV] [-j N (CPUs)] [--json]\n"
+    "             [--no-source] [--one-character A,B (none)]\n"
+    "             [--feature-function hks|agd|gc (hks)]\n"
+    "             [--descriptor hks|evd (hks)] [--group NAME=A,B (none)]\n"
     "  phks --version | --help\n";
 
 /* The global options with a value: --object, and options of the library's

@@ -15,18 +15,11 @@
 #include <errno.h>
 #include <stdlib.h>
 #include <string.h>
-#include <strings.h>
 
 typedef struct span {
     const char *p;
     size_t n;
 } span;
-
-static int has_suffix(const char *s, const char *suffix)
-{
-    size_t n = strlen(s), m = strlen(suffix);
-    return n >= m && strcasecmp(s + n - m, suffix) == 0;
-}
 
 static int span_is(span s, const char *text)
 {
@@ -137,7 +130,7 @@ int cli_load_mesh(const char *path, phks_mesh **mesh)
                     path, note);
         return 0;
     }
-    int is_obj = has_suffix(path, ".obj");
+    int is_obj = cli_has_suffix(path, ".obj");
     if (!is_obj && cli_object) {
         cli_say(stderr, "phks: %s: --object applies to uncompressed OBJ "
                 "files and to the formats read through assimp only\n", path);
