@@ -13,8 +13,8 @@
 
 static const double pi = 3.14159265358979323846;
 
-/* The default view: turned 30 degrees about the vertical, from 20 degrees
- * above (below when that would show the largest boundary). */
+/* The default view: turned 30 degrees about the vertical, seen from 20
+ * degrees above. */
 static const double default_azimuth = 30, default_elevation = 20;
 
 /* Eigenvectors of the symmetric 3x3 a (cyclic Jacobi) as the columns of v,
@@ -231,29 +231,33 @@ static void axis_frame(int up, double frame[3][3])
     cross(frame[1], frame[2], frame[0]);
 }
 
-/* The automatic frame: up the longest principal axis; the front away
- * from the largest open boundary when it lies off that axis, else the
- * principal frame's. *boundary is 1 with the boundary's offset from the
- * centre in offset. 0, or -1 when out of memory. */
+/* The automatic frame: up the longest principal axis, the front the
+ * principal frame's; with an open boundary, the largest one is put on
+ * the far side: below when its centre lies along the up axis (the view
+ * looks from above), and behind when it lies beside it, each by more than
+ * 5% of the surface's RMS radius (a scan's cut, where it stood, goes
+ * down; a scan's open back goes behind). 0, or -1 when out of memory. */
 static int auto_frame(const phks_mesh *mesh, const double centre[3],
-                      double frame[3][3], int *boundary, double offset[3])
+                      double frame[3][3])
 {
     double f[3][3], rms, b[3];
     principal_frame(mesh, centre, f, &rms);
     memcpy(frame[1], f[0], sizeof frame[1]);
     memcpy(frame[2], f[2], sizeof frame[2]);
-    *boundary = largest_boundary_centre(mesh, b);
-    if (*boundary < 0)
+    int boundary = largest_boundary_centre(mesh, b);
+    if (boundary < 0)
         return -1;
-    if (*boundary) {
+    if (boundary) {
+        double offset[3], side[3];
         for (int k = 0; k < 3; k++)
             offset[k] = b[k] - centre[k];
-        double along = dot(offset, frame[1]), side[3];
+        double along = dot(offset, frame[1]);
         for (int k = 0; k < 3; k++)
             side[k] = offset[k] - along * frame[1][k];
         double len = sqrt(dot(side, side));
-        /* A boundary around the up axis (a cup's rim) has no side to
-         * turn away from; the elevation keeps it away instead. */
+        if (along > 0.05 * rms)
+            for (int k = 0; k < 3; k++)
+                frame[1][k] = -frame[1][k];
         if (len > 0.05 * rms)
             for (int k = 0; k < 3; k++)
                 frame[2][k] = -side[k] / len;
@@ -289,21 +293,15 @@ static void turn(cli_view *view, double frame[3][3])
 int cli_view_orient(cli_view *view, const phks_mesh *mesh,
                     const cli_view_options *o)
 {
-    double frame[3][3], offset[3];
-    int boundary = 0;
+    double frame[3][3];
     area_centroid(mesh, view->centre);
     if (o && o->up)
         axis_frame(o->up, frame);
-    else if (auto_frame(mesh, view->centre, frame, &boundary, offset) != 0)
+    else if (auto_frame(mesh, view->centre, frame) != 0)
         return -1;
     int given = o && o->angles_given;
     view->azimuth = given ? o->azimuth : default_azimuth;
     view->elevation = given ? o->elevation : default_elevation;
     turn(view, frame);
-    /* From above, a boundary high on the mesh would face the viewer. */
-    if (!given && boundary && dot(view->rot[2], offset) > 0) {
-        view->elevation = -default_elevation;
-        turn(view, frame);
-    }
     return 0;
 }

@@ -74,20 +74,20 @@ char *cli_text_fit(char *buf, size_t size, const char *text, double width,
 /* How a mesh is seen (NULL: every default).
  * up: 0 for the mesh's own frame: centred on its area centroid, its
  *   principal axes (of the area-weighted second moments) upright the
- *   largest, the surface's third moment along it made not positive; the
- *   front, towards the viewer, away from the largest open boundary (the
- *   connected boundary edges of greatest length) when its centre lies off
- *   the up axis by more than 5% of the surface's RMS radius, else the
- *   smallest axis, its third moment made not negative; right-handed, so
- *   never a mirror image.
+ *   largest, the surface's third moment along it made not positive, the
+ *   smallest towards the viewer, its third moment made not negative;
+ *   right-handed, so never a mirror image. Then the largest open boundary
+ *   (the connected boundary edges of greatest length) goes to the far
+ *   side: the up axis is turned over when its centre lies above the
+ *   mesh's, and the front turned away from it when it lies beside, each
+ *   by more than 5% of the surface's RMS radius.
  *   1, 2, 3 (-1, -2, -3) for the file's +x, +y, +z (-x, -y, -z) upright,
  *   the front +y, +z, -y respectively (the modelling programs' front
  *   views: OpenGL's +z for y up, CAD's -y for z up).
  * azimuth, elevation (degrees, when angles_given): the mesh turned about
  *   its up axis, its front going right, then seen from that far above
- *   (below when negative). Otherwise 30 and 20; in the mesh's own frame
- *   -20 instead when from above the largest open boundary would face the
- *   viewer. Then projected orthographically to fill 90% of the tile. */
+ *   (below when negative); otherwise 30 and 20. Then projected
+ *   orthographically to fill 90% of the tile. */
 typedef struct cli_view_options {
     int up;
     int angles_given;
