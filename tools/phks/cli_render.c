@@ -19,9 +19,9 @@
 #include <string.h>
 
 static const char usage[] =
-    "render MESH [MESH_B] -o OUT.png [--size WxH] [--regions N] [--time T]\n"
-    "              [--pairs verified|all|none] [--view AZ,EL]\n"
-    "              [--up x|y|z|-x|-y|-z] [--json]\n"
+    "render MESH [MESH_B] -o OUT.png [--size WxH] [--regions N]\n"
+    "                   [--time T] [--pairs verified|all|none]\n"
+    "                   [--view AZ,EL] [--up x|y|z|-x|-y|-z] [--json]\n"
     "  -o OUT.png     the PNG to write (required)\n"
     "  --size WxH     each mesh's tile, 16..4096 pixels a side (480x360)\n"
     "  --regions N    at most N regions, 1..100000 (15)\n"
