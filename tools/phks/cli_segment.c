@@ -60,53 +60,15 @@ static phks_status segment(const phks_mesh *mesh, const phks_options *o,
     return st;
 }
 
-/* Each vertex takes the region of most of its triangles; ties go to the
- * lower region (no region, UINT32_MAX, only when it has no other). */
+/* Each vertex takes the region of most of its triangles
+ * (cli_vertex_regions). */
 static int vertex_regions(const phks_mesh *mesh, segmentation *seg)
 {
-    size_t n = phks_mesh_vertex_count(mesh), m = phks_mesh_triangle_count(mesh);
-    const uint32_t *tri = phks_mesh_triangles(mesh);
-    size_t *start = calloc(n + 1, sizeof *start);
-    uint32_t *list = malloc((m ? 3 * m : 1) * sizeof *list);
+    size_t n = phks_mesh_vertex_count(mesh);
     seg->vertex_region = malloc((n ? n : 1) * sizeof *seg->vertex_region);
-    if (!start || !list || !seg->vertex_region) {
-        free(start);
-        free(list);
-        return -1;
-    }
-    for (size_t i = 0; i < 3 * m; i++)
-        start[tri[i] + 1]++;
-    for (size_t v = 0; v < n; v++)
-        start[v + 1] += start[v];
-    size_t *fill = calloc(n + 1, sizeof *fill);
-    if (!fill) {
-        free(start);
-        free(list);
-        return -1;
-    }
-    for (size_t i = 0; i < 3 * m; i++)
-        list[start[tri[i]] + fill[tri[i]]++] = seg->region[i / 3];
-    for (size_t v = 0; v < n; v++) {
-        uint32_t best = UINT32_MAX;
-        size_t best_n = 0;
-        for (size_t i = start[v]; i < start[v + 1]; i++) {
-            size_t k = 0;
-            for (size_t j = start[v]; j < start[v + 1]; j++)
-                k += list[j] == list[i];
-            int better = list[i] != UINT32_MAX &&
-                         (best == UINT32_MAX || k > best_n ||
-                          (k == best_n && list[i] < best));
-            if (better || (best == UINT32_MAX && best_n == 0)) {
-                best = list[i];
-                best_n = k;
-            }
-        }
-        seg->vertex_region[v] = best;
-    }
-    free(fill);
-    free(start);
-    free(list);
-    return 0;
+    return seg->vertex_region
+               ? cli_vertex_regions(mesh, seg->region, seg->vertex_region)
+               : -1;
 }
 
 /* The shortest of %.15g..%.17g that reads back as x. */

@@ -35,6 +35,8 @@ static const char usage_text[] =
     "               [--ascii] [--json]\n"
     "  phks render MESH [MESH_B] -o OUT.png [--size WxH (480x360)]\n"
     "              [--regions N (15)] [--time T (5)]\n"
+    "              [--pairs verified|all|none (verified)]\n"
+    "              [--view AZ,EL (30,20)] [--up x|y|z|-x|-y|-z] [--json]\n"
     "  phks db add DB FILES|DIRS... [--label L] [-j N (CPUs)]\n"
     "              [--allow-duplicates]\n"
     "  phks db add DB --manifest TSV [-j N (CPUs)] [--allow-duplicates]\n"

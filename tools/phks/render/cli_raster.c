@@ -106,3 +106,27 @@ void cli_downsample(cli_image *dst, int x, int y, const cli_image *src,
             put(dst, x + i, y + j, rgb);
         }
 }
+
+void cli_blend_mask(cli_image *dst, int x, int y, const cli_image *mask,
+                    int factor, const unsigned char rgb[3])
+{
+    int w = mask->width / factor, h = mask->height / factor, n = factor * factor;
+    for (int j = 0; j < h; j++)
+        for (int i = 0; i < w; i++) {
+            if (x + i < 0 || y + j < 0 || x + i >= dst->width ||
+                y + j >= dst->height)
+                continue;
+            unsigned dark = 0;
+            for (int b = 0; b < factor; b++)
+                for (int a = 0; a < factor; a++)
+                    dark += 255 - mask->rgb[3 * ((size_t)(j * factor + b) *
+                                                     mask->width +
+                                                 (size_t)(i * factor + a))];
+            unsigned char *p =
+                dst->rgb + 3 * ((size_t)(y + j) * dst->width + (size_t)(x + i));
+            for (int c = 0; c < 3; c++)
+                p[c] = (unsigned char)((p[c] * (255u * n - dark) +
+                                        rgb[c] * dark + 255u * n / 2) /
+                                       (255u * n));
+        }
+}

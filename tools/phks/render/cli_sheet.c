@@ -13,7 +13,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-enum { TILE = 240, COLUMNS = 4, LABEL = 2 * (CLI_FONT_HEIGHT + 4) + 4 };
+/* Labels: two lines of text 8 pixels to a capital, 13 apart. */
+enum { TILE = 240, COLUMNS = 4, TEXT = 8, LINE = 13, LABEL = 2 * LINE + 6 };
 
 static const unsigned char ink[3] = {30, 30, 30};
 static const unsigned char frame[3] = {170, 170, 170};
@@ -40,7 +41,7 @@ static int draw_entry(cli_image *im, int x, int y, const char *path,
         for (size_t t = 0; t < m; t++)
             memcpy(rgb + 3 * t, base, 3);
         rc = cli_draw_mesh(im, x + 1, y + 1, TILE - 2, TILE - LABEL - 1, mesh,
-                           rgb, &view);
+                           rgb, NULL, &view);
     }
     if (rc == 0) {
         for (size_t i = 0; sig && i < phks_signature_feature_count(sig); i++) {
@@ -55,31 +56,37 @@ static int draw_entry(cli_image *im, int x, int y, const char *path,
     return rc;
 }
 
-static void placeholder(cli_image *im, int x, int y)
+static int placeholder(cli_image *im, int x, int y)
 {
     static const unsigned char fill[3] = {235, 235, 235};
     static const unsigned char grey[3] = {140, 140, 140};
     int h = TILE - LABEL - 1;
     cli_fill_rect(im, x + 1, y + 1, TILE - 2, h, fill);
     const char *text = "no mesh";
-    cli_draw_text(im, x + (TILE - cli_text_width(text, 2)) / 2,
-                  y + (h - 2 * CLI_FONT_HEIGHT) / 2, text, 2, grey);
+    return cli_draw_text(im, x + (TILE - cli_text_width(text, 2 * TEXT)) / 2,
+                         y + (h + 2 * TEXT) / 2.0, text, 2 * TEXT, grey);
 }
 
-static void tile(cli_image *im, int index, const char *name,
-                 const char *second, const char *path,
-                 const phks_signature *sig, const unsigned char base[3])
+/* Tile index: the mesh at path, or a placeholder, and two lines of
+ * label. 0, or -1 when out of memory. */
+static int tile(cli_image *im, int index, const char *name,
+                const char *second, const char *path,
+                const phks_signature *sig, const unsigned char base[3])
 {
     int x = index % COLUMNS * TILE, y = index / COLUMNS * TILE;
     char buf[64];
-    if (draw_entry(im, x, y, path, sig, base) != 0)
-        placeholder(im, x, y);
+    if (draw_entry(im, x, y, path, sig, base) != 0 && placeholder(im, x, y))
+        return -1;
     cli_draw_frame(im, x, y, TILE, TILE, frame);
-    int ty = y + TILE - LABEL + 3;
-    cli_draw_text(im, x + 5, ty, cli_text_fit(buf, sizeof buf, name,
-                                              TILE - 10, 1), 1, ink);
-    cli_draw_text(im, x + 5, ty + CLI_FONT_HEIGHT + 4,
-                  cli_text_fit(buf, sizeof buf, second, TILE - 10, 1), 1, ink);
+    double baseline = y + TILE - LABEL + 3 + TEXT;
+    if (cli_draw_text(im, x + 5, baseline,
+                      cli_text_fit(buf, sizeof buf, name, TILE - 10, TEXT),
+                      TEXT, ink) != 0)
+        return -1;
+    return cli_draw_text(im, x + 5, baseline + LINE,
+                         cli_text_fit(buf, sizeof buf, second, TILE - 10,
+                                      TEXT),
+                         TEXT, ink);
 }
 
 int cli_sheet_write(const char *png_path, phks_db *db, const char *mesh_path,
@@ -96,18 +103,20 @@ int cli_sheet_write(const char *png_path, phks_db *db, const char *mesh_path,
     cli_image im;
     if (cli_image_init(&im, columns * TILE, rows * TILE) != 0)
         return cli_error(png_path, "out of memory");
-    tile(&im, 0, mesh_path, "query", mesh_path, query, query_rgb);
-    for (size_t i = 0; i < count; i++) {
+    int drawn = tile(&im, 0, mesh_path, "query", mesh_path, query, query_rgb);
+    for (size_t i = 0; drawn == 0 && i < count; i++) {
         char second[PHKS_DB_TEXT_MAX + 64];
         phks_signature *sig = NULL;
         if (phks_db_get(db, hits[i].id, &sig, NULL, 0, NULL, 0) != PHKS_OK)
             sig = NULL;
         snprintf(second, sizeof second, "#%zu  score %.4g  %s", i + 1,
                  hits[i].score, hits[i].label);
-        tile(&im, (int)i + 1, hits[i].name, second, hits[i].name, sig, hit_rgb);
+        drawn = tile(&im, (int)i + 1, hits[i].name, second, hits[i].name, sig,
+                     hit_rgb);
         phks_signature_free(sig);
     }
-    int rc = cli_png_write(png_path, &im);
+    int rc = drawn == 0 ? cli_png_write(png_path, &im)
+                        : cli_error(png_path, "out of memory");
     if (rc == 0)
         fprintf(stderr, "wrote %s (%dx%d, %zu tiles)\n", png_path,
                 im.width, im.height, tiles);

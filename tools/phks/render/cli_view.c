@@ -1,8 +1,8 @@
 /*
- * cli_view.c - a mesh's view and its drawing for `phks` pictures: the
- * principal-axes frame, the fixed oblique orthographic projection, a
- * z-buffered rasteriser with two-sided Lambert shading by face normal at
- * up to 3x3 samples per pixel, the feature markers and the region palette.
+ * cli_view.c - a mesh's drawing for `phks` pictures: the orthographic
+ * projection of its view (cli_frame.c turns it), a z-buffered rasteriser
+ * with two-sided Lambert shading by face normal at up to 3x3 samples per
+ * pixel, the boundary edges over it, and the feature markers.
  */
 #include "render/cli_pictures.h"
 
@@ -19,191 +19,7 @@ static int samples(int w, int h)
 }
 
 const unsigned char cli_marker_rgb[3] = {0, 0, 0};
-
-/* Kelly's colours of maximum contrast without white, black and grey; then
- * hues spaced by the golden angle: the regions of `phks render` and of
- * `phks segment`'s PLY alike. */
-void cli_region_colour(uint32_t r, unsigned char rgb[3])
-{
-    static const unsigned char kelly[][3] = {
-        {243, 195, 0},   {135, 86, 146},  {243, 132, 0},   {161, 202, 241},
-        {190, 0, 50},    {194, 178, 128}, {0, 136, 86},    {230, 143, 172},
-        {0, 103, 165},   {249, 147, 121}, {96, 78, 151},   {246, 166, 0},
-        {179, 68, 108},  {220, 211, 0},   {136, 45, 23},   {141, 182, 0},
-        {101, 69, 34},   {226, 88, 34},   {43, 61, 38},
-    };
-    enum { K = sizeof kelly / sizeof kelly[0] };
-    if (r == UINT32_MAX) {
-        rgb[0] = rgb[1] = rgb[2] = 128;
-        return;
-    }
-    if (r < K) {
-        memcpy(rgb, kelly[r], 3);
-        return;
-    }
-    double h = fmod((r - K) * 0.618033988749895, 1.0) * 6, f = h - floor(h);
-    double v[6][3] = {{1, f, 0}, {1 - f, 1, 0}, {0, 1, f},
-                      {0, 1 - f, 1}, {f, 0, 1}, {1, 0, 1 - f}};
-    for (int c = 0; c < 3; c++)
-        rgb[c] = (unsigned char)(40 + 170 * v[(int)h % 6][c]);
-}
-
-/* Eigenvectors of the symmetric 3x3 a (cyclic Jacobi) as the columns of v,
- * eigenvalues in d. */
-static void jacobi3(double a[3][3], double d[3], double v[3][3])
-{
-    for (int i = 0; i < 3; i++)
-        for (int j = 0; j < 3; j++)
-            v[i][j] = i == j;
-    for (int sweep = 0; sweep < 50; sweep++) {
-        double off = fabs(a[0][1]) + fabs(a[0][2]) + fabs(a[1][2]);
-        if (off == 0)
-            break;
-        for (int p = 0; p < 2; p++)
-            for (int q = p + 1; q < 3; q++) {
-                if (a[p][q] == 0)
-                    continue;
-                double theta = (a[q][q] - a[p][p]) / (2 * a[p][q]);
-                double t = (theta >= 0 ? 1 : -1) /
-                           (fabs(theta) + sqrt(theta * theta + 1));
-                double c = 1 / sqrt(t * t + 1), s = t * c;
-                for (int k = 0; k < 3; k++) {  /* a = J^T a J */
-                    double akp = a[k][p], akq = a[k][q];
-                    a[k][p] = c * akp - s * akq;
-                    a[k][q] = s * akp + c * akq;
-                }
-                for (int k = 0; k < 3; k++) {
-                    double apk = a[p][k], aqk = a[q][k];
-                    a[p][k] = c * apk - s * aqk;
-                    a[q][k] = s * apk + c * aqk;
-                }
-                for (int k = 0; k < 3; k++) {
-                    double vkp = v[k][p], vkq = v[k][q];
-                    v[k][p] = c * vkp - s * vkq;
-                    v[k][q] = s * vkp + c * vkq;
-                }
-            }
-    }
-    for (int i = 0; i < 3; i++)
-        d[i] = a[i][i];
-}
-
-static double triangle_area(const double a[3], const double b[3],
-                            const double c[3])
-{
-    double u[3], w[3];
-    for (int k = 0; k < 3; k++) {
-        u[k] = b[k] - a[k];
-        w[k] = c[k] - a[k];
-    }
-    double nx = u[1] * w[2] - u[2] * w[1], ny = u[2] * w[0] - u[0] * w[2],
-           nz = u[0] * w[1] - u[1] * w[0];
-    return sqrt(nx * nx + ny * ny + nz * nz) / 2;
-}
-
-static void area_centroid(const phks_mesh *mesh, double centre[3])
-{
-    size_t m = phks_mesh_triangle_count(mesh);
-    const double *xyz = phks_mesh_vertices(mesh);
-    const uint32_t *tri = phks_mesh_triangles(mesh);
-    double total = 0, c[3] = {0, 0, 0};
-    for (size_t t = 0; t < m; t++) {
-        const double *a = xyz + 3 * (size_t)tri[3 * t],
-                     *b = xyz + 3 * (size_t)tri[3 * t + 1],
-                     *e = xyz + 3 * (size_t)tri[3 * t + 2];
-        double area = triangle_area(a, b, e);
-        total += area;
-        for (int k = 0; k < 3; k++)
-            c[k] += area * (a[k] + b[k] + e[k]) / 3;
-    }
-    for (int k = 0; k < 3; k++)
-        centre[k] = total > 0 ? c[k] / total : 0;
-}
-
-/* The principal frame: rows of f are unit axes, largest second moment
- * first. The surface's third moment along the first is made not positive
- * (an upright human then stands head up), along the third not negative
- * (the side where feet and nose stick out faces the viewer); the second
- * completes a right-handed frame (no mirror images). */
-static void principal_frame(const phks_mesh *mesh, double centre[3],
-                            double f[3][3])
-{
-    size_t m = phks_mesh_triangle_count(mesh);
-    const double *xyz = phks_mesh_vertices(mesh);
-    const uint32_t *tri = phks_mesh_triangles(mesh);
-    double cov[3][3] = {{0}}, d[3], v[3][3];
-    for (size_t t = 0; t < m; t++) {
-        const double *a = xyz + 3 * (size_t)tri[3 * t],
-                     *b = xyz + 3 * (size_t)tri[3 * t + 1],
-                     *e = xyz + 3 * (size_t)tri[3 * t + 2];
-        double area = triangle_area(a, b, e), g[3];
-        for (int k = 0; k < 3; k++)
-            g[k] = (a[k] + b[k] + e[k]) / 3 - centre[k];
-        for (int i = 0; i < 3; i++)
-            for (int j = 0; j < 3; j++)
-                cov[i][j] += area * g[i] * g[j];
-    }
-    jacobi3(cov, d, v);
-    int order[3] = {0, 1, 2};
-    for (int i = 0; i < 3; i++)
-        for (int j = i + 1; j < 3; j++)
-            if (d[order[j]] > d[order[i]]) {
-                int s = order[i];
-                order[i] = order[j];
-                order[j] = s;
-            }
-    for (int i = 0; i < 3; i++)
-        for (int k = 0; k < 3; k++)
-            f[i][k] = v[k][order[i]];
-    for (int i = 0; i < 3; i += 2) {
-        double third = 0;
-        for (size_t t = 0; t < m; t++) {
-            const double *a = xyz + 3 * (size_t)tri[3 * t],
-                         *b = xyz + 3 * (size_t)tri[3 * t + 1],
-                         *e = xyz + 3 * (size_t)tri[3 * t + 2];
-            double s = 0;
-            for (int k = 0; k < 3; k++)
-                s += f[i][k] * ((a[k] + b[k] + e[k]) / 3 - centre[k]);
-            third += triangle_area(a, b, e) * s * s * s;
-        }
-        if (i == 0 ? third > 0 : third < 0)
-            for (int k = 0; k < 3; k++)
-                f[i][k] = -f[i][k];
-    }
-    f[1][0] = f[0][1] * f[2][2] - f[0][2] * f[2][1];  /* f0 x f2 */
-    f[1][1] = f[0][2] * f[2][0] - f[0][0] * f[2][2];
-    f[1][2] = f[0][0] * f[2][1] - f[0][1] * f[2][0];
-}
-
-/* The view's rotation: the principal frame (x second, y largest, z
- * smallest), turned 30 degrees about y, then tilted 20 degrees about x. */
-static void view_rotation(const phks_mesh *mesh, cli_view *view)
-{
-    double f[3][3], pf[3][3];
-    area_centroid(mesh, view->centre);
-    principal_frame(mesh, view->centre, f);
-    memcpy(pf[0], f[1], sizeof pf[0]);  /* screen right: second axis    */
-    memcpy(pf[1], f[0], sizeof pf[1]);  /* screen up: largest axis      */
-    memcpy(pf[2], f[2], sizeof pf[2]);  /* towards the viewer: smallest */
-    const double pi = 3.14159265358979323846;
-    double ca = cos(30 * pi / 180), sa = sin(30 * pi / 180);
-    double cb = cos(20 * pi / 180), sb = sin(20 * pi / 180);
-    double yaw[3][3] = {{ca, 0, sa}, {0, 1, 0}, {-sa, 0, ca}};
-    double tilt[3][3] = {{1, 0, 0}, {0, cb, -sb}, {0, sb, cb}};
-    double r[3][3];
-    for (int i = 0; i < 3; i++)
-        for (int j = 0; j < 3; j++) {
-            r[i][j] = 0;
-            for (int k = 0; k < 3; k++)
-                r[i][j] += tilt[i][k] * yaw[k][j];
-        }
-    for (int i = 0; i < 3; i++)
-        for (int j = 0; j < 3; j++) {
-            view->rot[i][j] = 0;
-            for (int k = 0; k < 3; k++)
-                view->rot[i][j] += r[i][k] * pf[k][j];
-        }
-}
+const unsigned char cli_boundary_rgb[3] = {20, 20, 20};
 
 /* p in the view's frame, unscaled. */
 static void rotate(const cli_view *view, const double p[3], double q[3])
@@ -294,9 +110,53 @@ static void shade(const double a[3], const double b[3], const double c[3],
         rgb[i] = (unsigned char)(base[i] * k + 0.5);
 }
 
+/* The boundary edge a-b (fine pixels, depth in a[2] and b[2]) as a line
+ * of the given width, in the pixels where the surface is not in front of
+ * it by more than tol: a cut seen through the mesh is not drawn. */
+static void boundary_edge(cli_image *fine, const double *depth,
+                          const double a[3], const double b[3], double width,
+                          double tol)
+{
+    double r = width / 2, dx = b[0] - a[0], dy = b[1] - a[1];
+    double len2 = dx * dx + dy * dy;
+    int i0 = (int)floor(fmin(a[0], b[0]) - r), i1 = (int)ceil(fmax(a[0], b[0]) + r);
+    int j0 = (int)floor(fmin(a[1], b[1]) - r), j1 = (int)ceil(fmax(a[1], b[1]) + r);
+    i0 = i0 < 0 ? 0 : i0;
+    j0 = j0 < 0 ? 0 : j0;
+    i1 = i1 >= fine->width ? fine->width - 1 : i1;
+    j1 = j1 >= fine->height ? fine->height - 1 : j1;
+    for (int j = j0; j <= j1; j++)
+        for (int i = i0; i <= i1; i++) {
+            double px = i + 0.5 - a[0], py = j + 0.5 - a[1];
+            double s = len2 > 0 ? (px * dx + py * dy) / len2 : 0;
+            s = s < 0 ? 0 : s > 1 ? 1 : s;
+            double ex = px - s * dx, ey = py - s * dy;
+            size_t at = (size_t)j * (size_t)fine->width + (size_t)i;
+            if (ex * ex + ey * ey <= r * r &&
+                a[2] + s * (b[2] - a[2]) + tol >= depth[at])
+                memcpy(fine->rgb + 3 * at, cli_boundary_rgb, 3);
+        }
+}
+
+/* Every boundary edge of the mesh (p: its vertices in fine pixels), a
+ * line 1/200 of the tile's smaller side wide, at least 1.5 pixels. */
+static void draw_boundary(cli_image *fine, const cli_view *view,
+                          const phks_mesh *mesh, const double *p)
+{
+    size_t e = phks_mesh_boundary_edge_count(mesh);
+    const uint32_t *edge = phks_mesh_boundary_edges(mesh);
+    int side = view->w < view->h ? view->w : view->h;
+    double width = view->ss * fmax(1.5, side / 200.0);
+    /* The tolerance of cli_view_project: 1% of the tile. */
+    double tol = 0.01 * view->ss * (view->w > view->h ? view->w : view->h);
+    for (size_t i = 0; i < e; i++)
+        boundary_edge(fine, view->depth, p + 3 * (size_t)edge[2 * i],
+                      p + 3 * (size_t)edge[2 * i + 1], width, tol);
+}
+
 int cli_draw_mesh(cli_image *im, int x, int y, int w, int h,
                   const phks_mesh *mesh, const unsigned char *face_rgb,
-                  cli_view *view)
+                  const cli_view_options *options, cli_view *view)
 {
     memset(view, 0, sizeof *view);
     view->x = x;
@@ -304,7 +164,8 @@ int cli_draw_mesh(cli_image *im, int x, int y, int w, int h,
     view->w = w;
     view->h = h;
     view->ss = samples(w, h);
-    view_rotation(mesh, view);
+    if (cli_view_orient(view, mesh, options) != 0)
+        return -1;
     fit(mesh, view);
     size_t n = phks_mesh_vertex_count(mesh), m = phks_mesh_triangle_count(mesh);
     const double *xyz = phks_mesh_vertices(mesh);
@@ -334,6 +195,7 @@ int cli_draw_mesh(cli_image *im, int x, int y, int w, int h,
         shade(a, b, c, face_rgb ? face_rgb + 3 * t : grey, rgb);
         raster(&fine, view->depth, a, b, c, rgb);
     }
+    draw_boundary(&fine, view, mesh, p);
     cli_downsample(im, x, y, &fine, ss);
     cli_image_free(&fine);
     free(p);
