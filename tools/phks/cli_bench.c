@@ -128,7 +128,7 @@ static int listed(const char *list, const char *cls)
 
 static int wanted(const bench_args *a, const cli_row *row)
 {
-    return strncmp(row->name, a->prefix, strlen(a->prefix)) == 0 &&
+    return strncmp(row->file, a->prefix, strlen(a->prefix)) == 0 &&
            listed(a->classes, row->cls);
 }
 

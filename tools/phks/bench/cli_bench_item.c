@@ -67,7 +67,7 @@ static uint64_t cache_key(const bench_plan *p, const bench_item *it,
 {
     uint64_t h = cli_hash_string(0, "phks-cli-cache-1");
     h = cli_hash_u64(h, phks_version_number());
-    h = cli_hash_string(h, p->models[it->model].row->name);
+    h = cli_hash_string(h, p->models[it->model].row->file);
     h = cli_hash_u64(cli_hash_u64(h, (uint64_t)it->kind), seed);
     return hash_mesh(hash_options(h, &p->options), mesh);
 }
@@ -361,7 +361,7 @@ void bench_compute(void *ctx, size_t index)
     bench_item *it = &p->items[index];
     const char *path = p->models[it->model].row->path;
     uint64_t seed = it->kind == KIND_COMPLETE
-        ? 0 : bench_seed(it->seed, p->models[it->model].row->name, it->kind);
+        ? 0 : bench_seed(it->seed, p->models[it->model].row->file, it->kind);
     const char *reason = NULL;
     phks_status st = compute(p, it, seed, &reason);
     if (st != PHKS_OK && !reason)

@@ -39,8 +39,8 @@ static phks_status fill_db(const bench_plan *p, unsigned seed, phks_db *db,
             continue;
         }
         t->db_entries[model->db_kind]++;
-        e[n++] = (phks_db_entry){model->row->name, model->row->cls, it->sig};
-        bench_evd_add(evd, it, model->row->name, model->row->cls);
+        e[n++] = (phks_db_entry){model->row->file, model->row->cls, it->sig};
+        bench_evd_add(evd, it, model->row->file, model->row->cls);
     }
     phks_status st = n ? phks_db_add_batch(db, e, n, NULL) : PHKS_OK;
     free(e);
@@ -71,7 +71,7 @@ static void run_query(const bench_plan *p, phks_db *db,
     if (st != PHKS_OK) {
         t->failed[kind]++;
         if (out)
-            fprintf(out, "%s\t%s\t%u\t%s\t-1\t\n", row->name,
+            fprintf(out, "%s\t%s\t%u\t%s\t-1\t\n", row->file,
                     bench_kind_name[kind], seed, row->cls);
         return;
     }
@@ -87,7 +87,7 @@ static void run_query(const bench_plan *p, phks_db *db,
         t->vertices_near_cut[kind] += it->vertices_near_cut;
     }
     if (out)
-        fprintf(out, "%s\t%s\t%u\t%s\t%zu\t%s\n", row->name,
+        fprintf(out, "%s\t%s\t%u\t%s\t%zu\t%s\n", row->file,
                 bench_kind_name[kind], seed, row->cls, rank,
                 count ? hits[0].label : "");
 }

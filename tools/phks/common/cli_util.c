@@ -6,6 +6,7 @@
 #include "common/cli_common.h"
 
 #include <errno.h>
+#include <stdarg.h>
 #include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
@@ -18,6 +19,17 @@ unsigned cli_explicit;
 int cli_error(const char *what, const char *reason)
 {
     fprintf(stderr, "phks: %s: %s\n", what, reason);
+    return 1;
+}
+
+int cli_error_at(const char *path, int line, const char *format, ...)
+{
+    va_list ap;
+    va_start(ap, format);
+    fprintf(stderr, "phks: %s:%d: ", path, line);
+    vfprintf(stderr, format, ap);
+    fputc('\n', stderr);
+    va_end(ap);
     return 1;
 }
 
