@@ -13,8 +13,6 @@
 #include <errno.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
-#include <time.h>
 
 static const char usage[] =
     "bench MANIFEST [--prefix P] [--classes A,B] [--max-per-class M]\n"
@@ -354,49 +352,18 @@ static void json_header(const bench_args *a, const bench_plan *p,
            p->model_count, queries, 3 * queries, p->model_count - queries);
 }
 
-static void print_footer(const bench_plan *p, double seconds, int json)
-{
-    size_t computed = 0, cached = 0, failed = 0;
-    for (size_t i = 0; i < p->item_count; i++) {
-        const bench_item *it = &p->items[i];
-        failed += !it->sig;
-        cached += it->sig && it->cached;
-        computed += it->sig && !it->cached;
-    }
-    if (json) {
-        printf(",\n  \"signatures\": {\"computed\": %zu, \"cached\": %zu, "
-               "\"failed\": %zu},\n  \"wall_seconds\": ", computed, cached,
-               failed);
-        cli_json_number(seconds);
-        fputs("\n}\n", stdout);
-        return;
-    }
-    printf("\nSignatures: %zu computed, %zu from the cache, %zu failed; wall "
-           "time %.1f s.\n", computed, cached, failed, seconds);
-}
-
-static double now(void)
-{
-    struct timespec t;
-    clock_gettime(CLOCK_MONOTONIC, &t);
-    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
-}
-
 static int run(const bench_args *a, bench_plan *p, FILE *qout)
 {
-    if (a->cache && mkdir(a->cache, 0777) != 0 && errno != EEXIST)
-        return cli_error(a->cache, strerror(errno));
+    if (bench_make_cache(a->cache) != 0)
+        return 1;
     unsigned workers = (unsigned)a->workers;
     if (a->json)
         json_header(a, p, workers);
     else
         print_header(a, p, workers);
     fflush(stdout);
-    double start = now();
-    cli_blas_one_thread();
-    cli_progress_start(p->item_count, "signatures");
-    cli_pool_run(p->item_count, workers, bench_compute, p);
-    cli_progress_end();
+    double start = cli_seconds();
+    bench_compute_all(p, workers);
     /* A source part whose database failed reports nothing (null). */
     int source = p->source && bench_source_run(p, workers) == 0;
     int rc = score_all(p, qout, a->json) | (p->source && !source);
@@ -408,7 +375,7 @@ static int run(const bench_args *a, bench_plan *p, FILE *qout)
             fputs("null", stdout);
     } else if (source)
         bench_source_print(p, a->one_character);
-    print_footer(p, now() - start, a->json);
+    bench_print_footer(p, cli_seconds() - start, a->json);
     return rc;
 }
 

@@ -157,6 +157,16 @@ phks_status bench_query(const bench_plan *plan, phks_db *db,
 
 /* Pool task: computes plan->items[index] (ctx is the plan). */
 void bench_compute(void *ctx, size_t index);
+/* Creates the --cache folder when missing (dir NULL: no cache). 0, or 1
+ * after "phks: dir: reason". */
+int bench_make_cache(const char *dir);
+/* Computes every item of the plan on the work pool, with the progress
+ * bar; BLAS on one thread per worker. */
+void bench_compute_all(bench_plan *plan, unsigned workers);
+/* The signatures computed, read from the cache and failed, and the wall
+ * time: the report's last line (markdown), or its last fields and the
+ * closing brace (JSON). */
+void bench_print_footer(const bench_plan *plan, double seconds, int json);
 
 /* Builds seed's database, runs its queries, adds to *tally and to
  * by_class[the query's class] (class_count tallies) and writes one line per
@@ -165,14 +175,30 @@ void bench_compute(void *ctx, size_t index);
 int bench_score_seed(const bench_plan *plan, unsigned seed, bench_tally *tally,
                      bench_tally *by_class, FILE *queries_out);
 void bench_tally_add(bench_tally *sum, const bench_tally *t);
+/* Rank (1..) of the first hit labelled cls, 0 when none. */
+size_t bench_class_rank(const phks_hit *hits, size_t count, const char *cls);
+/* Counts an answered query of kind into t: its hit at rank (1..; 0: none
+ * among the hits) is a Top-k hit for k >= rank. */
+void bench_tally_rank(bench_tally *t, int kind, size_t rank);
 /* The retrieval table and the features-at-the-cut table, markdown. */
 void bench_print_tally(const bench_tally *t, const char *title);
 /* The same as a JSON object on stdout (docs/cli.md). */
 void bench_json_tally(const bench_tally *t);
+/* Without the cut: "## title", the database's line and the retrieval
+ * table (markdown); the retrieval table alone. */
+void bench_print_results(const bench_tally *t, const char *title);
+void bench_print_retrieval(const bench_tally *t);
+/* Without the cut: the results object's "database" and "retrieval",
+ * left open for the caller's fields and closing brace; the "retrieval"
+ * array alone. */
+void bench_json_results(const bench_tally *t);
+void bench_json_retrieval(const bench_tally *t);
 /* The plan's by_class: the by-class table with --group's row (markdown),
- * or the JSON report's fields "by_class" and "group". */
+ * or the JSON report's fields "by_class" and "group"; the table alone,
+ * without its sentence. */
 void bench_print_by_class(const bench_plan *plan);
 void bench_json_by_class(const bench_plan *plan);
+void bench_print_class_table(const bench_plan *plan);
 /* " 12.5 |" (markdown) or 12.5 (JSON): percent of part in whole, "-" or
  * null when whole is 0. */
 void bench_print_percent(size_t part, size_t whole);

@@ -70,6 +70,8 @@ int cli_read_file(const char *path, unsigned char **data, size_t *size);
 int cli_write_file_atomic(const char *path, const void *data, size_t size);
 /* Online CPUs, at least 1. */
 unsigned cli_cpu_count(void);
+/* A monotonic clock in seconds, for wall times. */
+double cli_seconds(void);
 
 /* ---- meshes (cli_mesh.c) ------------------------------------------------ */
 /* phks_mesh_load, honouring --object for OBJ files and noting on stderr

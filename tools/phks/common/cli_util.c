@@ -10,6 +10,7 @@
 #include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 #include <unistd.h>
 
 int cli_progress_mode = -1;
@@ -220,6 +221,13 @@ int cli_write_file_atomic(const char *path, const void *data, size_t size)
     free(tmp);
     errno = err;
     return ok ? 0 : -1;
+}
+
+double cli_seconds(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
 }
 
 unsigned cli_cpu_count(void)
