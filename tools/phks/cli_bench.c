@@ -5,7 +5,8 @@
  * and prints the report; cli_bench_item.c computes one signature,
  * cli_bench_score.c scores one seed, cli_bench_source.c the source
  * part, and cli_bench_features.c makes the comparison rows' features and
- * descriptor.
+ * descriptor. `phks bench --db LIST --queries LIST` and `--leave-one-out
+ * LIST` go to cli_bench_lists.c.
  */
 #include "cli.h"
 #include "bench/cli_bench_parts.h"
@@ -20,6 +21,8 @@ static const char usage[] =
     "                  [--json] [--no-source] [--one-character A,B]\n"
     "                  [--feature-function hks|agd|gc] [--descriptor hks|evd]\n"
     "                  [--group NAME=A,B]\n"
+    "       phks bench --db LIST --queries LIST [--cache DIR] [-j N] [--json]\n"
+    "       phks bench --leave-one-out LIST [--cache DIR] [-j N] [--json]\n"
     "  --prefix P          rows whose file starts with P (psb/)\n"
     "  --classes A,B       only these classes (all)\n"
     "  --max-per-class M   the first M models of each class (all)\n"
@@ -37,7 +40,15 @@ static const char usage[] =
     "  --descriptor D      rank by the signatures, or by the first 50\n"
     "                      nonzero eigenvalues (hks)\n"
     "  --group NAME=A,B    a row NAME of the by-class table pooling these\n"
-    "                      classes (none)";
+    "                      classes (none)\n"
+    "  --db LIST           the database: a TSV naming the columns file and\n"
+    "                      class, and optionally name (the file) and kind\n"
+    "                      (complete, partial or incomplete; complete)\n"
+    "  --queries LIST      the queries: a TSV as --db's, and optionally\n"
+    "                      source (the name of the database entry the query\n"
+    "                      was made from; none)\n"
+    "  --leave-one-out LIST  each entry against a database of all the\n"
+    "                      others";
 
 typedef struct bench_args {
     const char *manifest, *prefix, *classes, *cache, *queries_out;
@@ -379,11 +390,23 @@ static int run(const bench_args *a, bench_plan *p, FILE *qout)
     return rc;
 }
 
+/* --db, --queries or --leave-one-out (before "--"): the mode on lists. */
+static int on_lists(int argc, char **argv)
+{
+    for (int i = 1; i < argc && strcmp(argv[i], "--") != 0; i++)
+        if (strcmp(argv[i], "--db") == 0 || strcmp(argv[i], "--queries") == 0 ||
+            strcmp(argv[i], "--leave-one-out") == 0)
+            return 1;
+    return 0;
+}
+
 int cli_bench(int argc, char **argv, const phks_options *options)
 {
     bench_args a = {0};
     if (cli_help(argc, argv, usage))
         return 0;
+    if (on_lists(argc, argv))
+        return bench_lists(argc, argv, options, usage);
     int features, evd;
     if (parse_args(argc, argv, &a) != 0 ||
         parse_comparison(&a, &features, &evd) != 0)

@@ -45,6 +45,8 @@ static const char usage_text[] =
     "  phks bench MANIFEST [--prefix P (psb/)] [--classes A,B (all)]\n"
     "             [--max-per-class M (all)] [--seeds N (1)] [--cache DIR]\n"
     "             [--queries-out TSV] [-j N (CPUs)] [--json]\n"
+    "  phks bench --db LIST --queries LIST [--cache DIR] [-j N (CPUs)] [--json]\n"
+    "  phks bench --leave-one-out LIST [--cache DIR] [-j N (CPUs)] [--json]\n"
     "  phks --version | --help\n";
 
 /* The global options with a value: --object, and options of the library's

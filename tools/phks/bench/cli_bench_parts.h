@@ -3,9 +3,10 @@
  * the plan of models and signatures to compute (../cli_bench.c), computing
  * one signature (cli_bench_item.c), scoring and reporting the protocol
  * (cli_bench_score.c), the source part: retrieving each version's own
- * source and checking its correspondences (cli_bench_source.c), and the
+ * source and checking its correspondences (cli_bench_source.c), the
  * comparison rows: other feature functions and the eigenvalue descriptor
- * (cli_bench_features.c).
+ * (cli_bench_features.c), and the mode on lists of the user's own
+ * (cli_bench_lists.c).
  */
 #ifndef PHKS_CLI_BENCH_PARTS_H
 #define PHKS_CLI_BENCH_PARTS_H
@@ -37,7 +38,7 @@ extern const char *const bench_feature_name[BENCH_FEATURES_COUNT];
 
 typedef struct bench_model {
     const cli_row *row;
-    int is_query;      /* index in its class % 4 == 3                     */
+    int is_query;      /* index in its class % 4 == 3 (lists: a query)    */
     int db_kind;       /* database models: their one version             */
     int all_versions;  /* items of every kind: query models, and every
                           model with the source part                      */
@@ -149,11 +150,11 @@ typedef struct bench_evd_db {
 /* Appends it (when it has its eigenvalues) to db. */
 void bench_evd_add(bench_evd_db *db, const bench_item *it, const char *name,
                    const char *label);
-/* The BENCH_QUERY_DEPTH best entries for it, best first: of db by
- * phks_db_query, or with --descriptor evd of evd. */
+/* The depth best entries for it, best first (hits has room for depth):
+ * of db by phks_db_query, or with --descriptor evd of evd. */
 phks_status bench_query(const bench_plan *plan, phks_db *db,
                         const bench_evd_db *evd, const bench_item *it,
-                        phks_hit *hits, size_t *count);
+                        size_t depth, phks_hit *hits, size_t *count);
 
 /* Pool task: computes plan->items[index] (ctx is the plan). */
 void bench_compute(void *ctx, size_t index);
@@ -211,5 +212,12 @@ int bench_source_run(bench_plan *plan, unsigned workers);
 /* Its tables (markdown) or its JSON object, per seed and pooled. */
 void bench_source_print(const bench_plan *plan, const char *one_character);
 void bench_source_json(const bench_plan *plan, const char *one_character);
+
+/* `phks bench --db LIST --queries LIST` and `--leave-one-out LIST`
+ * (cli_bench_lists.c): parses argv (argv[0] "bench"), reads and checks the
+ * lists, computes, scores and prints the report. Returns the exit status;
+ * a usage error prints usage (cli_usage). */
+int bench_lists(int argc, char **argv, const phks_options *options,
+                const char *usage);
 
 #endif

@@ -71,7 +71,8 @@ static void run_query(const bench_plan *p, phks_db *db,
     const bench_item *it = &p->items[bench_item_of(p, m, kind, seed)];
     phks_hit hits[BENCH_QUERY_DEPTH];
     size_t count = 0;
-    phks_status st = bench_query(p, db, evd, it, hits, &count);
+    phks_status st = bench_query(p, db, evd, it, BENCH_QUERY_DEPTH, hits,
+                                   &count);
     if (it->sig && st != PHKS_OK)
         cli_say_fail(row->path, st);
     if (st != PHKS_OK) {

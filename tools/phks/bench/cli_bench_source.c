@@ -68,7 +68,8 @@ static long own_rank(const source_ctx *c, size_t m, const bench_item *query)
     const bench_model *model = &c->plan->models[m];
     phks_hit hits[BENCH_QUERY_DEPTH];
     size_t count;
-    phks_status st = bench_query(c->plan, c->db, &c->evd, query, hits, &count);
+    phks_status st = bench_query(c->plan, c->db, &c->evd, query,
+                                 BENCH_QUERY_DEPTH, hits, &count);
     if (st != PHKS_OK) {
         cli_say_fail(model->row->path, st);
         return -1;
