@@ -13,10 +13,11 @@
 #include <unistd.h>
 
 /* Under verified matching phks_db_query ranks a shortlist of the max(k,
- * 32) entries of the least nearest score (phks.h). Asked for one place
- * more, a leave-one-out query's own entry (nearest score 0, the least)
- * takes the extra place, and the others are shortlisted and ranked as in
- * a database without it (unless more than 32 entries equal it). */
+ * 32) entries of the least nearest score (phks.h); under nearest matching
+ * it takes the k of the least score. Asked for one place more, a
+ * leave-one-out query's own entry (its score 0, the least) takes the
+ * extra place, and the others are shortlisted and ranked as in a database
+ * without it (unless more than 32 entries equal it). */
 #define LEAVE_ONE_OUT_DEPTH (32 + 1)
 
 typedef struct lists_args {
@@ -40,13 +41,14 @@ typedef struct entry {
     int64_t id;        /* database entries: the id; 0: not entered        */
     long rank;         /* queries: the first hit of its class, 1..20; 0:
                           none of the 20; -1: failed                      */
-    long source_rank;  /* ... of its source's entry, the same way         */
+    long source_rank;  /* ... of its source's entry, the same way; -1 also
+                          without a source                                */
     int has_best;      /* ... best is its best hit                        */
     phks_hit best;
 } entry;
 
 typedef struct lists {
-    list db, queries;      /* leave-one-out: queries is db                */
+    list db, queries;      /* leave-one-out: db alone, queries empty      */
     int leave_one_out;
     size_t first_query;    /* models first_query.. are the queries        */
     entry *entries;        /* per model                                   */
@@ -484,7 +486,7 @@ static void json_query(const lists *l, size_t m)
     fputs(", \"source\": ", stdout);
     json_string_or_null(e->source != SIZE_MAX ? row->source : NULL);
     fputs(", \"source_rank\": ", stdout);
-    json_rank(e->source != SIZE_MAX ? e->source_rank : -1);
+    json_rank(e->source_rank);
     putchar('}');
 }
 
@@ -555,7 +557,6 @@ int bench_lists(int argc, char **argv, const phks_options *options,
     l.plan.options = *options;
     l.plan.options.threads = 1;
     l.plan.cache_dir = a.cache;
-    l.plan.seeds = 1;
     l.plan.features = BENCH_FEATURES_HKS;
     int rc = read_list(l.leave_one_out ? a.leave_one_out : a.db, &l.db) ||
              (!l.leave_one_out && read_list(a.queries, &l.queries));
