@@ -69,7 +69,9 @@ expect_out "--time T .*(5)"; expect_out "--ascii .*(binary little-endian)"
 run "$phks" db query --help; expect_out "-k K .*(10)"
 run "$phks" db add --help; expect_out "--allow-duplicates"
 run "$phks" bench --help; expect_out "--seeds N .*(1)"; expect_out "(psb/)"
-expect_out "--group NAME=A,B"
+expect_out "--group NAME=A,B"; expect_out "^ *phks bench --db LIST --queries LIST"
+expect_out "--leave-one-out LIST"
+run "$phks" --help; expect_out "bench --leave-one-out LIST"
 # The overviews, `phks --help` and `phks db --help`, name every option of
 # each command's own --help.
 options_of() {
@@ -801,6 +803,134 @@ expect_rc 2 "bench --feature-function sift"
 run "$phks" bench set/MANIFEST.tsv --descriptor evd --feature-function gc
 expect_rc 2 "bench --descriptor evd --feature-function gc"
 expect_err "no --feature-function"
+# ---- bench on lists of one's own -------------------------------------------
+# A database of six meshes of three classes; queries: a copy of star0's
+# file (identical to that entry), bar1 and egg0 themselves (files of both
+# lists: one signature each), and egg1 without a source.
+mkdir -p lists/m
+blob 24 12 1.0 1.0 0.5 0.35 3 > lists/m/star0.off
+blob 24 12 1.0 1.0 0.5 0.25 5 > lists/m/star1.off
+blob 24 12 1.3 0.4 0.3 0.05 2 > lists/m/bar0.off
+blob 24 12 1.1 0.4 0.3 0.02 2 > lists/m/bar1.off
+blob 24 12 0.6 0.6 0.9 0.15 4 > lists/m/egg0.off
+blob 24 12 0.6 0.7 0.9 0.10 4 > lists/m/egg1.off
+for f in star0 bar0 egg0; do cp lists/m/$f.off lists/m/$f-copy.off; done
+printf 'file\tclass\tname\n' > lists/db.tsv
+for f in star0 star1 bar0 bar1 egg0 egg1; do
+    printf 'm/%s.off\t%s\t%s\n' $f "${f%?}" $f >> lists/db.tsv
+done
+printf '%s\t%s\t%s\t%s\n' file class kind source \
+    m/star0-copy.off star complete star0 m/bar1.off bar partial bar1 \
+    m/egg0.off egg incomplete egg0 m/egg1.off egg "" "" > lists/q.tsv
+run "$phks" bench --db lists/db.tsv --queries lists/q.tsv --cache lcache \
+    -j 2 --json
+expect_rc 0 "bench --db --queries"
+$py -c 'import json,sys; d=json.load(sys.stdin)
+assert d["mode"] == "queries" and d["db_list"] == "lists/db.tsv"
+assert d["queries_list"] == "lists/q.tsv"
+assert d["database_entries"] == 6 and d["query_count"] == 4
+assert d["signatures"] == {"computed": 7, "cached": 0, "failed": 0}
+r = d["results"]
+assert r["database"] == {"entries": 6, "complete": 6, "partial": 0,
+                         "incomplete": 0, "failed": 0}
+n = {x["queries"]: x["n"] for x in r["retrieval"]}
+assert n == {"complete": 2, "partial": 1, "incomplete": 1,
+             "partial+incomplete": 2, "all": 4}, n
+assert [c["class"] for c in d["by_class"]] == ["star", "bar", "egg"]
+assert [c["queries"] for c in d["by_class"]] == [1, 1, 2]
+s = d["source"]
+assert s["named"] == 3
+src = {x["queries"]: x for x in s["retrieval"]}
+assert src["all"]["n"] == 3 and src["all"]["top1"] == 100, src["all"]
+q = d["queries"]
+assert [x["name"] for x in q] == ["m/star0-copy.off", "m/bar1.off",
+                                  "m/egg0.off", "m/egg1.off"]
+assert [x["kind"] for x in q] == ["complete", "partial", "incomplete",
+                                  "complete"]
+assert [x["source_rank"] for x in q] == [1, 1, 1, None]
+assert [x["best"] for x in q][:3] == ["star0", "bar1", "egg0"]
+assert q[3]["source"] is None
+for x in q:
+    assert 0 <= x["rank"] <= 20 and x["best_class"] is not None
+# Its ranks in the --queries-out form, for class_row.
+print("name\tkind\tseed\tclass\trank")
+for x in q:
+    print("%s\t%s\t1\t%s\t%d" % (x["name"], x["kind"], x["class"], x["rank"]))' \
+    < out > lq.tsv || fail "bench --db --queries --json"
+documented "bench --db --queries --json"
+run "$phks" bench --db lists/db.tsv --queries lists/q.tsv --cache lcache -j 1
+expect_rc 0 "bench --db --queries, markdown"
+expect_out "database lists/db.tsv (6 entries), queries lists/q.tsv (4 queries)"
+expect_out "^Database: 6 entries (6 complete, 0 partial, 0 incomplete), 0 failed"
+expect_out "^## Source retrieval"; expect_out "^The 3 queries that name"
+expect_out "^| all | 3 | 0 | 100.0 | 100.0 | 100.0 |$"
+expect_out "Signatures: 0 computed, 7 from the cache, 0 failed"
+grep -q "next to the cut" out && fail "bench --db: a table of cuts"
+for c in star bar egg; do
+    grep -qxF -- "$(class_row $c lq.tsv)" out ||
+        fail "bench --db: the by-class row of $c is not $(class_row $c lq.tsv)"
+done
+# Leave-one-out: two identical meshes per class (bar0 one file under two
+# names, one signature) find each other first, never themselves.
+printf '%s\t%s\t%s\n' file class name \
+    m/star0.off star star0 m/star0-copy.off star star0-copy \
+    m/bar0.off bar bar0 m/bar0.off bar bar0-again \
+    m/egg0.off egg egg0 m/egg0-copy.off egg egg0-copy > lists/twins.tsv
+run "$phks" bench --leave-one-out lists/twins.tsv --cache lcache -j 2 --json
+expect_rc 0 "bench --leave-one-out"
+$py -c 'import json,sys; d=json.load(sys.stdin)
+assert d["mode"] == "leave-one-out" and d["queries_list"] is None
+assert d["database_entries"] == 6 and d["query_count"] == 6
+sig = d["signatures"]
+assert sig["computed"] + sig["cached"] == 5 and sig["failed"] == 0, sig
+rows = {x["queries"]: x for x in d["results"]["retrieval"]}
+assert rows["all"]["n"] == 6 and rows["all"]["top1"] == 100
+assert d["source"] is None
+twin = {"star0": "star0-copy", "bar0": "bar0-again", "egg0": "egg0-copy"}
+twin.update({v: k for k, v in twin.items()})
+for x in d["queries"]:
+    assert x["rank"] == 1 and x["best"] == twin[x["name"]], x' < out ||
+    fail "bench --leave-one-out --json"
+documented "bench --leave-one-out --json"
+run "$phks" bench --leave-one-out lists/twins.tsv --cache lcache -j 2
+expect_rc 0 "bench --leave-one-out, markdown"
+expect_out "leave-one-out over lists/twins.tsv (6 entries)"
+expect_out "^| all | 6 | 0 | 100.0 | 100.0 | 100.0 |$"
+expect_out "^| bar | 2 | 0 | 100.0 | "
+# Bad lists: named by file and line, before any signature.
+printf 'file\tkind\nm/star0.off\tcomplete\n' > lists/no-class.tsv
+run "$phks" bench --db lists/db.tsv --queries lists/no-class.tsv
+expect_rc 1 "bench --queries without a class column"
+expect_err "^phks: lists/no-class.tsv:1: the header names no column \"class\""
+printf 'file\tclass\tkind\nm/star0.off\tstar\tcomplete\nm/bar0.off\tbar\tscan\n' \
+    > lists/bad-kind.tsv
+run "$phks" bench --db lists/db.tsv --queries lists/bad-kind.tsv
+expect_rc 1 "bench --queries of an unknown kind"
+expect_err "^phks: lists/bad-kind.tsv:3: unknown kind \"scan\""
+printf 'file\tclass\tsource\nm/star0.off\tstar\tstar0\nm/bar0.off\tbar\tbar9\n' \
+    > lists/bad-source.tsv
+run "$phks" bench --db lists/db.tsv --queries lists/bad-source.tsv
+expect_rc 1 "bench --queries of an unknown source"
+expect_err "^phks: lists/bad-source.tsv:3: source \"bar9\" is no name of lists/db.tsv$"
+printf 'file\tclass\nm/star0.off\tstar\nm/nope.off\tbar\n' > lists/no-file.tsv
+run "$phks" bench --leave-one-out lists/no-file.tsv --cache lcache2
+expect_rc 1 "bench --leave-one-out of a missing file"
+expect_err "^phks: lists/no-file.tsv:3: lists/m/nope.off: No such file"
+[ -e lcache2 ] && fail "bench of a missing file: a cache made"
+printf 'file\tclass\nm/star0.off\tstar\nm/star0.off\tstar\n' > lists/twice.tsv
+run "$phks" bench --db lists/twice.tsv --queries lists/q.tsv
+expect_rc 1 "bench --db of one name twice"
+expect_err "^phks: lists/twice.tsv:3: the name \"m/star0.off\" is line 2's too"
+printf 'file\tclass\nm/star0.off\n' > lists/short.tsv
+run "$phks" bench --leave-one-out lists/short.tsv
+expect_rc 1 "bench --leave-one-out of a row without a class"
+expect_err "^phks: lists/short.tsv:2: expected a file and a class"
+run "$phks" bench --db lists/db.tsv; expect_rc 2 "bench --db without --queries"
+expect_err "either --db LIST and --queries LIST, or --leave-one-out LIST"
+run "$phks" bench --leave-one-out lists/twins.tsv --seeds 2
+expect_rc 2 "bench --leave-one-out --seeds"; expect_err "unknown option --seeds"
+run "$phks" bench set/MANIFEST.tsv --leave-one-out lists/twins.tsv
+expect_rc 2 "bench MANIFEST --leave-one-out"
 # The source part on real models (two classes of small meshes), when the
 # shared data is there: its rates are numbers in [0, 100].
 shared=${PHKS_SHARED_MESHES:-}

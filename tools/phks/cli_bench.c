@@ -5,7 +5,8 @@
  * and prints the report; cli_bench_item.c computes one signature,
  * cli_bench_score.c scores one seed, cli_bench_source.c the source
  * part, and cli_bench_features.c makes the comparison rows' features and
- * descriptor.
+ * descriptor. `phks bench --db LIST --queries LIST` and `--leave-one-out
+ * LIST` go to cli_bench_lists.c.
  */
 #include "cli.h"
 #include "bench/cli_bench_parts.h"
@@ -13,8 +14,6 @@
 #include <errno.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
-#include <time.h>
 
 static const char usage[] =
     "bench MANIFEST [--prefix P] [--classes A,B] [--max-per-class M]\n"
@@ -22,6 +21,8 @@ static const char usage[] =
     "                  [--json] [--no-source] [--one-character A,B]\n"
     "                  [--feature-function hks|agd|gc] [--descriptor hks|evd]\n"
     "                  [--group NAME=A,B]\n"
+    "       phks bench --db LIST --queries LIST [--cache DIR] [-j N] [--json]\n"
+    "       phks bench --leave-one-out LIST [--cache DIR] [-j N] [--json]\n"
     "  --prefix P          rows whose file starts with P (psb/)\n"
     "  --classes A,B       only these classes (all)\n"
     "  --max-per-class M   the first M models of each class (all)\n"
@@ -39,7 +40,15 @@ static const char usage[] =
     "  --descriptor D      rank by the signatures, or by the first 50\n"
     "                      nonzero eigenvalues (hks)\n"
     "  --group NAME=A,B    a row NAME of the by-class table pooling these\n"
-    "                      classes (none)";
+    "                      classes (none)\n"
+    "  --db LIST           the database: a TSV naming the columns file and\n"
+    "                      class, and optionally name (the file) and kind\n"
+    "                      (complete, partial or incomplete; complete)\n"
+    "  --queries LIST      the queries: a TSV as --db's, and optionally\n"
+    "                      source (the name of the database entry the query\n"
+    "                      was made from; none)\n"
+    "  --leave-one-out LIST  each entry against a database of all the\n"
+    "                      others";
 
 typedef struct bench_args {
     const char *manifest, *prefix, *classes, *cache, *queries_out;
@@ -128,7 +137,7 @@ static int listed(const char *list, const char *cls)
 
 static int wanted(const bench_args *a, const cli_row *row)
 {
-    return strncmp(row->name, a->prefix, strlen(a->prefix)) == 0 &&
+    return strncmp(row->file, a->prefix, strlen(a->prefix)) == 0 &&
            listed(a->classes, row->cls);
 }
 
@@ -354,49 +363,18 @@ static void json_header(const bench_args *a, const bench_plan *p,
            p->model_count, queries, 3 * queries, p->model_count - queries);
 }
 
-static void print_footer(const bench_plan *p, double seconds, int json)
-{
-    size_t computed = 0, cached = 0, failed = 0;
-    for (size_t i = 0; i < p->item_count; i++) {
-        const bench_item *it = &p->items[i];
-        failed += !it->sig;
-        cached += it->sig && it->cached;
-        computed += it->sig && !it->cached;
-    }
-    if (json) {
-        printf(",\n  \"signatures\": {\"computed\": %zu, \"cached\": %zu, "
-               "\"failed\": %zu},\n  \"wall_seconds\": ", computed, cached,
-               failed);
-        cli_json_number(seconds);
-        fputs("\n}\n", stdout);
-        return;
-    }
-    printf("\nSignatures: %zu computed, %zu from the cache, %zu failed; wall "
-           "time %.1f s.\n", computed, cached, failed, seconds);
-}
-
-static double now(void)
-{
-    struct timespec t;
-    clock_gettime(CLOCK_MONOTONIC, &t);
-    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
-}
-
 static int run(const bench_args *a, bench_plan *p, FILE *qout)
 {
-    if (a->cache && mkdir(a->cache, 0777) != 0 && errno != EEXIST)
-        return cli_error(a->cache, strerror(errno));
+    if (bench_make_cache(a->cache) != 0)
+        return 1;
     unsigned workers = (unsigned)a->workers;
     if (a->json)
         json_header(a, p, workers);
     else
         print_header(a, p, workers);
     fflush(stdout);
-    double start = now();
-    cli_blas_one_thread();
-    cli_progress_start(p->item_count, "signatures");
-    cli_pool_run(p->item_count, workers, bench_compute, p);
-    cli_progress_end();
+    double start = cli_seconds();
+    bench_compute_all(p, workers);
     /* A source part whose database failed reports nothing (null). */
     int source = p->source && bench_source_run(p, workers) == 0;
     int rc = score_all(p, qout, a->json) | (p->source && !source);
@@ -408,8 +386,18 @@ static int run(const bench_args *a, bench_plan *p, FILE *qout)
             fputs("null", stdout);
     } else if (source)
         bench_source_print(p, a->one_character);
-    print_footer(p, now() - start, a->json);
+    bench_print_footer(p, cli_seconds() - start, a->json);
     return rc;
+}
+
+/* --db, --queries or --leave-one-out (before "--"): the mode on lists. */
+static int on_lists(int argc, char **argv)
+{
+    for (int i = 1; i < argc && strcmp(argv[i], "--") != 0; i++)
+        if (strcmp(argv[i], "--db") == 0 || strcmp(argv[i], "--queries") == 0 ||
+            strcmp(argv[i], "--leave-one-out") == 0)
+            return 1;
+    return 0;
 }
 
 int cli_bench(int argc, char **argv, const phks_options *options)
@@ -417,6 +405,8 @@ int cli_bench(int argc, char **argv, const phks_options *options)
     bench_args a = {0};
     if (cli_help(argc, argv, usage))
         return 0;
+    if (on_lists(argc, argv))
+        return bench_lists(argc, argv, options, usage);
     int features, evd;
     if (parse_args(argc, argv, &a) != 0 ||
         parse_comparison(&a, &features, &evd) != 0)

@@ -356,7 +356,7 @@ static int from_manifest(add_job *job, cli_row *rows, size_t count)
         return cli_error("db add", "out of memory");
     job->paths = job->names + count;
     for (size_t i = 0; i < count; i++) {
-        job->names[i] = rows[i].name;
+        job->names[i] = rows[i].file;
         job->paths[i] = rows[i].path;
         job->labels[i] = rows[i].cls;
     }

@@ -50,6 +50,8 @@ static const char usage_text[] =
     "             [--no-source] [--one-character A,B (none)]\n"
     "             [--feature-function hks|agd|gc (hks)]\n"
     "             [--descriptor hks|evd (hks)] [--group NAME=A,B (none)]\n"
+    "  phks bench --db LIST --queries LIST [--cache DIR] [-j N (CPUs)] [--json]\n"
+    "  phks bench --leave-one-out LIST [--cache DIR] [-j N (CPUs)] [--json]\n"
     "  phks --version | --help\n";
 
 /* The global options with a value: --object, and options of the library's

@@ -270,12 +270,12 @@ void bench_evd_add(bench_evd_db *db, const bench_item *it, const char *name,
 
 phks_status bench_query(const bench_plan *p, phks_db *db,
                         const bench_evd_db *evd, const bench_item *it,
-                        phks_hit *hits, size_t *count)
+                        size_t depth, phks_hit *hits, size_t *count)
 {
     *count = 0;
     if (p->evd)
-        return it->evd ? evd_query(evd, it->evd, BENCH_QUERY_DEPTH, hits, count)
+        return it->evd ? evd_query(evd, it->evd, depth, hits, count)
                        : PHKS_ERROR_INVALID_ARGUMENT;
-    return it->sig ? phks_db_query(db, it->sig, BENCH_QUERY_DEPTH, hits, count)
+    return it->sig ? phks_db_query(db, it->sig, depth, hits, count)
                    : PHKS_ERROR_INVALID_ARGUMENT;
 }

@@ -14,6 +14,7 @@
 #include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 const char *const bench_kind_name[KIND_COUNT] = {"complete", "partial",
                                                  "incomplete"};
@@ -67,7 +68,7 @@ static uint64_t cache_key(const bench_plan *p, const bench_item *it,
 {
     uint64_t h = cli_hash_string(0, "phks-cli-cache-1");
     h = cli_hash_u64(h, phks_version_number());
-    h = cli_hash_string(h, p->models[it->model].row->name);
+    h = cli_hash_string(h, p->models[it->model].row->file);
     h = cli_hash_u64(cli_hash_u64(h, (uint64_t)it->kind), seed);
     return hash_mesh(hash_options(h, &p->options), mesh);
 }
@@ -361,7 +362,7 @@ void bench_compute(void *ctx, size_t index)
     bench_item *it = &p->items[index];
     const char *path = p->models[it->model].row->path;
     uint64_t seed = it->kind == KIND_COMPLETE
-        ? 0 : bench_seed(it->seed, p->models[it->model].row->name, it->kind);
+        ? 0 : bench_seed(it->seed, p->models[it->model].row->file, it->kind);
     const char *reason = NULL;
     phks_status st = compute(p, it, seed, &reason);
     if (st != PHKS_OK && !reason)
@@ -372,4 +373,40 @@ void bench_compute(void *ctx, size_t index)
         cli_say(stderr, "phks: %s: %s version of seed %u: %s\n", path,
                 bench_kind_name[it->kind], it->seed, reason);
     cli_progress_step();
+}
+
+int bench_make_cache(const char *dir)
+{
+    if (dir && mkdir(dir, 0777) != 0 && errno != EEXIST)
+        return cli_error(dir, strerror(errno));
+    return 0;
+}
+
+void bench_compute_all(bench_plan *plan, unsigned workers)
+{
+    cli_blas_one_thread();
+    cli_progress_start(plan->item_count, "signatures");
+    cli_pool_run(plan->item_count, workers, bench_compute, plan);
+    cli_progress_end();
+}
+
+void bench_print_footer(const bench_plan *p, double seconds, int json)
+{
+    size_t computed = 0, cached = 0, failed = 0;
+    for (size_t i = 0; i < p->item_count; i++) {
+        const bench_item *it = &p->items[i];
+        failed += !it->sig;
+        cached += it->sig && it->cached;
+        computed += it->sig && !it->cached;
+    }
+    if (json) {
+        printf(",\n  \"signatures\": {\"computed\": %zu, \"cached\": %zu, "
+               "\"failed\": %zu},\n  \"wall_seconds\": ", computed, cached,
+               failed);
+        cli_json_number(seconds);
+        fputs("\n}\n", stdout);
+        return;
+    }
+    printf("\nSignatures: %zu computed, %zu from the cache, %zu failed; wall "
+           "time %.1f s.\n", computed, cached, failed, seconds);
 }

@@ -3,9 +3,10 @@
  * the plan of models and signatures to compute (../cli_bench.c), computing
  * one signature (cli_bench_item.c), scoring and reporting the protocol
  * (cli_bench_score.c), the source part: retrieving each version's own
- * source and checking its correspondences (cli_bench_source.c), and the
+ * source and checking its correspondences (cli_bench_source.c), the
  * comparison rows: other feature functions and the eigenvalue descriptor
- * (cli_bench_features.c).
+ * (cli_bench_features.c), and the mode on lists of the user's own
+ * (cli_bench_lists.c).
  */
 #ifndef PHKS_CLI_BENCH_PARTS_H
 #define PHKS_CLI_BENCH_PARTS_H
@@ -37,7 +38,7 @@ extern const char *const bench_feature_name[BENCH_FEATURES_COUNT];
 
 typedef struct bench_model {
     const cli_row *row;
-    int is_query;      /* index in its class % 4 == 3                     */
+    int is_query;      /* index in its class % 4 == 3 (lists: a query)    */
     int db_kind;       /* database models: their one version             */
     int all_versions;  /* items of every kind: query models, and every
                           model with the source part                      */
@@ -149,14 +150,24 @@ typedef struct bench_evd_db {
 /* Appends it (when it has its eigenvalues) to db. */
 void bench_evd_add(bench_evd_db *db, const bench_item *it, const char *name,
                    const char *label);
-/* The BENCH_QUERY_DEPTH best entries for it, best first: of db by
- * phks_db_query, or with --descriptor evd of evd. */
+/* The depth best entries for it, best first (hits has room for depth):
+ * of db by phks_db_query, or with --descriptor evd of evd. */
 phks_status bench_query(const bench_plan *plan, phks_db *db,
                         const bench_evd_db *evd, const bench_item *it,
-                        phks_hit *hits, size_t *count);
+                        size_t depth, phks_hit *hits, size_t *count);
 
 /* Pool task: computes plan->items[index] (ctx is the plan). */
 void bench_compute(void *ctx, size_t index);
+/* Creates the --cache folder when missing (dir NULL: no cache). 0, or 1
+ * after "phks: dir: reason". */
+int bench_make_cache(const char *dir);
+/* Computes every item of the plan on the work pool, with the progress
+ * bar; BLAS on one thread per worker. */
+void bench_compute_all(bench_plan *plan, unsigned workers);
+/* The signatures computed, read from the cache and failed, and the wall
+ * time: the report's last line (markdown), or its last fields and the
+ * closing brace (JSON). */
+void bench_print_footer(const bench_plan *plan, double seconds, int json);
 
 /* Builds seed's database, runs its queries, adds to *tally and to
  * by_class[the query's class] (class_count tallies) and writes one line per
@@ -165,14 +176,30 @@ void bench_compute(void *ctx, size_t index);
 int bench_score_seed(const bench_plan *plan, unsigned seed, bench_tally *tally,
                      bench_tally *by_class, FILE *queries_out);
 void bench_tally_add(bench_tally *sum, const bench_tally *t);
+/* Rank (1..) of the first hit labelled cls, 0 when none. */
+size_t bench_class_rank(const phks_hit *hits, size_t count, const char *cls);
+/* Counts an answered query of kind into t: its hit at rank (1..; 0: none
+ * among the hits) is a Top-k hit for k >= rank. */
+void bench_tally_rank(bench_tally *t, int kind, size_t rank);
 /* The retrieval table and the features-at-the-cut table, markdown. */
 void bench_print_tally(const bench_tally *t, const char *title);
 /* The same as a JSON object on stdout (docs/cli.md). */
 void bench_json_tally(const bench_tally *t);
+/* Without the cut: "## title", the database's line and the retrieval
+ * table (markdown); the retrieval table alone. */
+void bench_print_results(const bench_tally *t, const char *title);
+void bench_print_retrieval(const bench_tally *t);
+/* Without the cut: the results object's "database" and "retrieval",
+ * left open for the caller's fields and closing brace; the "retrieval"
+ * array alone. */
+void bench_json_results(const bench_tally *t);
+void bench_json_retrieval(const bench_tally *t);
 /* The plan's by_class: the by-class table with --group's row (markdown),
- * or the JSON report's fields "by_class" and "group". */
+ * or the JSON report's fields "by_class" and "group"; the table alone,
+ * without its sentence. */
 void bench_print_by_class(const bench_plan *plan);
 void bench_json_by_class(const bench_plan *plan);
+void bench_print_class_table(const bench_plan *plan);
 /* " 12.5 |" (markdown) or 12.5 (JSON): percent of part in whole, "-" or
  * null when whole is 0. */
 void bench_print_percent(size_t part, size_t whole);
@@ -185,5 +212,12 @@ int bench_source_run(bench_plan *plan, unsigned workers);
 /* Its tables (markdown) or its JSON object, per seed and pooled. */
 void bench_source_print(const bench_plan *plan, const char *one_character);
 void bench_source_json(const bench_plan *plan, const char *one_character);
+
+/* `phks bench --db LIST --queries LIST` and `--leave-one-out LIST`
+ * (cli_bench_lists.c): parses argv (argv[0] "bench"), reads and checks the
+ * lists, computes, scores and prints the report. Returns the exit status;
+ * a usage error prints usage (cli_usage). */
+int bench_lists(int argc, char **argv, const phks_options *options,
+                const char *usage);
 
 #endif

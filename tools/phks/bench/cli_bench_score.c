@@ -39,21 +39,27 @@ static phks_status fill_db(const bench_plan *p, unsigned seed, phks_db *db,
             continue;
         }
         t->db_entries[model->db_kind]++;
-        e[n++] = (phks_db_entry){model->row->name, model->row->cls, it->sig};
-        bench_evd_add(evd, it, model->row->name, model->row->cls);
+        e[n++] = (phks_db_entry){model->row->file, model->row->cls, it->sig};
+        bench_evd_add(evd, it, model->row->file, model->row->cls);
     }
     phks_status st = n ? phks_db_add_batch(db, e, n, NULL) : PHKS_OK;
     free(e);
     return st;
 }
 
-/* Rank (1..) of the first hit of class cls, 0 when none. */
-static size_t first_rank(const phks_hit *hits, size_t count, const char *cls)
+size_t bench_class_rank(const phks_hit *hits, size_t count, const char *cls)
 {
     for (size_t r = 0; r < count; r++)
         if (strcmp(hits[r].label, cls) == 0)
             return r + 1;
     return 0;
+}
+
+void bench_tally_rank(bench_tally *t, int kind, size_t rank)
+{
+    t->queries[kind]++;
+    for (int k = 0; k < 3; k++)
+        t->top[kind][k] += rank && rank <= top_k[k];
 }
 
 /* Runs one query and counts it into t, a tally of its own. */
@@ -65,20 +71,19 @@ static void run_query(const bench_plan *p, phks_db *db,
     const bench_item *it = &p->items[bench_item_of(p, m, kind, seed)];
     phks_hit hits[BENCH_QUERY_DEPTH];
     size_t count = 0;
-    phks_status st = bench_query(p, db, evd, it, hits, &count);
+    phks_status st = bench_query(p, db, evd, it, BENCH_QUERY_DEPTH, hits,
+                                   &count);
     if (it->sig && st != PHKS_OK)
         cli_say_fail(row->path, st);
     if (st != PHKS_OK) {
         t->failed[kind]++;
         if (out)
-            fprintf(out, "%s\t%s\t%u\t%s\t-1\t\n", row->name,
+            fprintf(out, "%s\t%s\t%u\t%s\t-1\t\n", row->file,
                     bench_kind_name[kind], seed, row->cls);
         return;
     }
-    size_t rank = first_rank(hits, count, row->cls);
-    t->queries[kind]++;
-    for (int k = 0; k < 3; k++)
-        t->top[kind][k] += rank && rank <= top_k[k];
+    size_t rank = bench_class_rank(hits, count, row->cls);
+    bench_tally_rank(t, kind, rank);
     if (kind != KIND_COMPLETE) {
         t->cut_queries[kind]++;
         t->features[kind] += it->features;
@@ -87,7 +92,7 @@ static void run_query(const bench_plan *p, phks_db *db,
         t->vertices_near_cut[kind] += it->vertices_near_cut;
     }
     if (out)
-        fprintf(out, "%s\t%s\t%u\t%s\t%zu\t%s\n", row->name,
+        fprintf(out, "%s\t%s\t%u\t%s\t%zu\t%s\n", row->file,
                 bench_kind_name[kind], seed, row->cls, rank,
                 count ? hits[0].label : "");
 }
@@ -168,7 +173,7 @@ void bench_print_percent(size_t part, size_t whole)
         printf(" - |");
 }
 
-static void print_retrieval(const bench_tally *t)
+void bench_print_retrieval(const bench_tally *t)
 {
     printf("| queries | n | failed | Top-1 | Top-3 | Top-5 |\n"
            "|---|---:|---:|---:|---:|---:|\n");
@@ -203,13 +208,18 @@ static void print_cut(const bench_tally *t)
     }
 }
 
-void bench_print_tally(const bench_tally *t, const char *title)
+void bench_print_results(const bench_tally *t, const char *title)
 {
     printf("\n## %s\n\nDatabase: %zu entries (%zu complete, %zu partial, %zu "
            "incomplete), %zu failed.\n\n", title, sum(t->db_entries, 7),
            t->db_entries[0], t->db_entries[1], t->db_entries[2],
            sum(t->db_failed, 7));
-    print_retrieval(t);
+    bench_print_retrieval(t);
+}
+
+void bench_print_tally(const bench_tally *t, const char *title)
+{
+    bench_print_results(t, title);
     print_cut(t);
 }
 
@@ -236,17 +246,29 @@ static void json_retrieval_row(const bench_tally *t, const bench_set *set)
     putchar('}');
 }
 
-void bench_json_tally(const bench_tally *t)
+void bench_json_retrieval(const bench_tally *t)
 {
-    printf("{\"database\": {\"entries\": %zu, \"complete\": %zu, "
-           "\"partial\": %zu, \"incomplete\": %zu, \"failed\": %zu},\n"
-           "      \"retrieval\": [", sum(t->db_entries, 7), t->db_entries[0],
-           t->db_entries[1], t->db_entries[2], sum(t->db_failed, 7));
+    putchar('[');
     for (size_t r = 0; r < BENCH_SET_COUNT; r++) {
         printf("%s\n        ", r ? "," : "");
         json_retrieval_row(t, &bench_sets[r]);
     }
-    printf("\n      ],\n      \"cut_radius\": %g, \"cut\": [", BENCH_CUT_RADIUS);
+    fputs("\n      ]", stdout);
+}
+
+void bench_json_results(const bench_tally *t)
+{
+    printf("{\"database\": {\"entries\": %zu, \"complete\": %zu, "
+           "\"partial\": %zu, \"incomplete\": %zu, \"failed\": %zu},\n"
+           "      \"retrieval\": ", sum(t->db_entries, 7), t->db_entries[0],
+           t->db_entries[1], t->db_entries[2], sum(t->db_failed, 7));
+    bench_json_retrieval(t);
+}
+
+void bench_json_tally(const bench_tally *t)
+{
+    bench_json_results(t);
+    printf(",\n      \"cut_radius\": %g, \"cut\": [", BENCH_CUT_RADIUS);
     for (size_t r = 1; r < 4; r++) {
         const bench_set *set = &bench_sets[r];
         size_t f = sum(t->features, set->kinds);
@@ -297,7 +319,13 @@ void bench_print_by_class(const bench_plan *p)
     if (p->group_name)
         printf("; the last row, %s, pools %s", p->group_name,
                p->group_classes);
-    printf(":\n\n| class | n | failed | complete Top-1 | Top-3 | Top-5 | "
+    printf(":\n");
+    bench_print_class_table(p);
+}
+
+void bench_print_class_table(const bench_plan *p)
+{
+    printf("\n| class | n | failed | complete Top-1 | Top-3 | Top-5 | "
            "partial+incomplete Top-1 | Top-3 | Top-5 | all Top-1 | Top-3 | "
            "Top-5 |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
            "---:|\n");

@@ -53,8 +53,8 @@ static phks_status fill_db(const bench_plan *p, phks_db *db, bench_evd_db *evd)
         const bench_item *it = &p->items[bench_item_of(p, m, KIND_COMPLETE,
                                                        1)];
         if (it->sig)
-            e[n++] = (phks_db_entry){row->name, row->cls, it->sig};
-        bench_evd_add(evd, it, row->name, row->cls);
+            e[n++] = (phks_db_entry){row->file, row->cls, it->sig};
+        bench_evd_add(evd, it, row->file, row->cls);
     }
     phks_status st = n ? phks_db_add_batch(db, e, n, NULL) : PHKS_OK;
     free(e);
@@ -68,14 +68,15 @@ static long own_rank(const source_ctx *c, size_t m, const bench_item *query)
     const bench_model *model = &c->plan->models[m];
     phks_hit hits[BENCH_QUERY_DEPTH];
     size_t count;
-    phks_status st = bench_query(c->plan, c->db, &c->evd, query, hits, &count);
+    phks_status st = bench_query(c->plan, c->db, &c->evd, query,
+                                 BENCH_QUERY_DEPTH, hits, &count);
     if (st != PHKS_OK) {
         cli_say_fail(model->row->path, st);
         return -1;
     }
     for (size_t r = 0; r < count; r++)
         if (model->one_character ? strcmp(hits[r].label, model->row->cls) == 0
-                                 : strcmp(hits[r].name, model->row->name) == 0)
+                                 : strcmp(hits[r].name, model->row->file) == 0)
             return (long)r + 1;
     return 0;
 }

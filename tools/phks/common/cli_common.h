@@ -33,6 +33,12 @@ const char *cli_reason(const char *what, phks_status status);
 int cli_fail(const char *what, phks_status status);
 /* Prints "phks: what: reason" and returns 1. */
 int cli_error(const char *what, const char *reason);
+/* Prints "phks: path:line: " and the formatted reason, and returns 1. */
+int cli_error_at(const char *path, int line, const char *format, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 3, 4)))
+#endif
+    ;
 /* Prints "usage: phks <line>" and returns 2. */
 int cli_usage(const char *line);
 /* When argv[1..argc) holds -h or --help (before "--"), prints
@@ -66,6 +72,8 @@ int cli_write_file_atomic(const char *path, const void *data, size_t size);
 unsigned cli_cpu_count(void);
 /* 1 when path ends in suffix, in any case (".PNG" is ".png"). */
 int cli_has_suffix(const char *path, const char *suffix);
+/* A monotonic clock in seconds, for wall times. */
+double cli_seconds(void);
 
 /* ---- meshes (cli_mesh.c) ------------------------------------------------ */
 /* phks_mesh_load, honouring --object for OBJ files and noting on stderr
@@ -134,14 +142,19 @@ void cli_say_db_fail(phks_db *db, const char *path, const phks_signature *sig,
 
 /* ---- manifests (cli_manifest.c) ----------------------------------------- */
 typedef struct cli_row {
-    char *name;  /* the file column as written              */
-    char *path;  /* name joined to the manifest's directory */
-    char *cls;   /* the class column                        */
+    char *file;   /* the file column as written                       */
+    char *path;   /* file joined to the manifest's directory          */
+    char *cls;    /* the class column                                 */
+    char *name;   /* the name column; the file when absent or empty   */
+    char *kind;   /* the kind column as written; NULL: absent or empty */
+    char *source; /* the source column; NULL: absent or empty         */
+    int line;     /* the row's line in the manifest, from 1           */
 } cli_row;
 
 /* Reads a TSV with a header line naming at least the columns "file" and
- * "class" (any order; other columns ignored). Prints "phks: path: reason"
- * and returns -1 on failure. */
+ * "class", and optionally "name", "kind" and "source" (any order; other
+ * columns ignored). Prints "phks: path: reason" (a row's or the header's
+ * fault as "phks: path:line: reason") and returns -1 on failure. */
 int cli_manifest_read(const char *path, cli_row **rows, size_t *count);
 void cli_manifest_free(cli_row *rows, size_t count);
 

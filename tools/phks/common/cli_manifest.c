@@ -1,6 +1,7 @@
 /*
  * cli_manifest.c - the TSV manifests of `phks db add --manifest` and
- * `phks bench`: a header line, then one file per line with its class.
+ * `phks bench` (its lists too): a header line naming the columns, then one
+ * file per line with its class, and optionally its name, kind and source.
  */
 #include "common/cli_common.h"
 
@@ -29,12 +30,34 @@ static size_t split(char *line, char **fields)
     return n;
 }
 
-static int column(char **fields, size_t n, const char *name, size_t fallback)
+/* The header's columns; -1 for an optional one it does not name. */
+typedef struct columns {
+    int file, cls, name, kind, source;
+} columns;
+
+static int column(char **fields, size_t n, const char *name)
 {
     for (size_t i = 0; i < n; i++)
         if (strcmp(fields[i], name) == 0)
             return (int)i;
-    return (int)fallback;
+    return -1;
+}
+
+/* A header without the columns is a mistake, not a default: taking the
+ * first two columns for file and class would read a header-less file's
+ * first row as its header and drop it. */
+static int read_header(const char *path, char **fields, size_t n,
+                       columns *c)
+{
+    *c = (columns){column(fields, n, "file"), column(fields, n, "class"),
+                   column(fields, n, "name"), column(fields, n, "kind"),
+                   column(fields, n, "source")};
+    if (c->file >= 0 && c->cls >= 0)
+        return 0;
+    cli_error_at(path, 1, "the header names no column \"%s\" (it needs "
+                 "\"file\" and \"class\", separated by tabs)",
+                 c->file < 0 ? "file" : "class");
+    return -1;
 }
 
 static char *join(const char *manifest, const char *name)
@@ -64,16 +87,30 @@ static char *next_line(char **cursor, char *end)
     return line;
 }
 
+/* The field of an optional column, or NULL when the row leaves it out
+ * or empty. */
+static const char *optional(char **fields, size_t n, int col)
+{
+    return col >= 0 && (size_t)col < n && *fields[col] ? fields[col] : NULL;
+}
+
 static int add_row(cli_row **rows, size_t *count, const char *path,
-                   const char *name, const char *cls)
+                   char **f, size_t n, const columns *c, int line)
 {
     cli_row *r = realloc(*rows, (*count + 1) * sizeof *r);
     if (!r)
         return -1;
     *rows = r;
-    r[*count] = (cli_row){dup_string(name), join(path, name), dup_string(cls)};
-    (*count)++;
-    return r[*count - 1].name && r[*count - 1].path && r[*count - 1].cls
+    const char *file = f[c->file], *name = optional(f, n, c->name);
+    const char *kind = optional(f, n, c->kind);
+    const char *source = optional(f, n, c->source);
+    cli_row *row = &r[(*count)++];
+    *row = (cli_row){dup_string(file), join(path, file), dup_string(f[c->cls]),
+                     dup_string(name ? name : file),
+                     kind ? dup_string(kind) : NULL,
+                     source ? dup_string(source) : NULL, line};
+    return row->file && row->path && row->cls && row->name &&
+                   (!kind || row->kind) && (!source || row->source)
                ? 0 : -1;
 }
 
@@ -81,25 +118,23 @@ static int parse(const char *path, char *text, size_t size, cli_row **rows,
                  size_t *count)
 {
     char *cursor = text, *end = text + size, *line, *f[MAX_COLUMNS];
-    int file_col = 0, class_col = 1, lineno = 0;
-    char where[64];
-    while ((line = next_line(&cursor, end)) != NULL) {
-        lineno++;
+    columns c;
+    if ((line = next_line(&cursor, end)) == NULL) {
+        cli_error_at(path, 1, "empty: no header line");
+        return -1;
+    }
+    if (read_header(path, f, split(line, f), &c) != 0)
+        return -1;
+    for (int lineno = 2; (line = next_line(&cursor, end)) != NULL; lineno++) {
         size_t n = split(line, f);
-        if (lineno == 1) {
-            file_col = column(f, n, "file", 0);
-            class_col = column(f, n, "class", 1);
-            continue;
-        }
         if (line[0] == '\0' || line[0] == '#')
             continue;
-        if ((size_t)file_col >= n || (size_t)class_col >= n || !*f[file_col]) {
-            snprintf(where, sizeof where, "line %d: expected a file and a "
-                     "class separated by a tab", lineno);
-            cli_error(path, where);
+        if ((size_t)c.file >= n || (size_t)c.cls >= n || !*f[c.file]) {
+            cli_error_at(path, lineno, "expected a file and a class "
+                         "separated by a tab");
             return -1;
         }
-        if (add_row(rows, count, path, f[file_col], f[class_col]) != 0) {
+        if (add_row(rows, count, path, f, n, &c, lineno) != 0) {
             cli_error(path, "out of memory");
             return -1;
         }
@@ -130,9 +165,12 @@ int cli_manifest_read(const char *path, cli_row **rows, size_t *count)
 void cli_manifest_free(cli_row *rows, size_t count)
 {
     for (size_t i = 0; i < count; i++) {
-        free(rows[i].name);
+        free(rows[i].file);
         free(rows[i].path);
         free(rows[i].cls);
+        free(rows[i].name);
+        free(rows[i].kind);
+        free(rows[i].source);
     }
     free(rows);
 }

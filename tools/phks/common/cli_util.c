@@ -6,10 +6,12 @@
 #include "common/cli_common.h"
 
 #include <errno.h>
+#include <stdarg.h>
 #include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
+#include <time.h>
 #include <unistd.h>
 
 int cli_progress_mode = -1;
@@ -19,6 +21,17 @@ unsigned cli_explicit;
 int cli_error(const char *what, const char *reason)
 {
     fprintf(stderr, "phks: %s: %s\n", what, reason);
+    return 1;
+}
+
+int cli_error_at(const char *path, int line, const char *format, ...)
+{
+    va_list ap;
+    va_start(ap, format);
+    fprintf(stderr, "phks: %s:%d: ", path, line);
+    vfprintf(stderr, format, ap);
+    fputc('\n', stderr);
+    va_end(ap);
     return 1;
 }
 
@@ -209,6 +222,13 @@ int cli_write_file_atomic(const char *path, const void *data, size_t size)
     free(tmp);
     errno = err;
     return ok ? 0 : -1;
+}
+
+double cli_seconds(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
 }
 
 unsigned cli_cpu_count(void)
