@@ -326,8 +326,8 @@ def hostile_blobs(verified, nearest):
     count = struct.unpack_from("<I", v, count_offset(v))[0]
     samples_at = features + count * (36 + 8 * scales)
     out = [
-        ("empty", b"", "shorter than a header"),
-        ("seven bytes", v[:7], "shorter than a header"),
+        ("empty", b"", "shorter than any format"),
+        ("seven bytes", v[:7], "shorter than any format"),
         ("header only", v[:header_size(4)], "bytes"),
         ("bad magic", b"PHKZ" + v[4:], "magic"),
         ("newer format", with_field(v, 4, "<H", 5), "newer"),
