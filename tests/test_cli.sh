@@ -466,7 +466,9 @@ run "$phks" segment a.off -o seg.obj; expect_rc 1 "segment -o seg.obj"
 expect_err "seg.obj: segment writes PLY only"
 [ -e seg.obj ] && fail "segment wrote seg.obj"
 run "$phks" segment a.off -o x.ply --regions 0; expect_rc 2 "--regions 0"
+expect_err "^phks: --regions: '0' is not a whole number from 1 to 100000$"
 run "$phks" segment a.off -o x.ply --time -1; expect_rc 2 "--time -1"
+expect_err "^phks: --time: '-1' is not a time above 0 and at most 1e9 (in units of tau)$"
 run "$phks" segment a.off; expect_rc 2 "segment without -o"
 expect_err "usage: phks segment"
 run "$phks" segment bad.off -o x.ply; expect_rc 1 "segment of a bad mesh"
@@ -523,6 +525,7 @@ if command -v python3 >/dev/null; then
         < out || fail "db query --json: not JSON"
 fi
 run "$phks" db query t.db a.off -k 0; expect_rc 2 "db query -k 0"
+expect_err "^phks: -k: '0' is not a whole number from 1 to 1000000$"
 # A database made with other options: add and query use the database's.
 run "$phks" --hks-scaling none db add plain.db a.off -j 1; expect_rc 0 \
     "db add with --hks-scaling none"
@@ -773,6 +776,7 @@ expect_rc 1 "bench of an unknown class"; expect_err "no class nope"
 run "$phks" bench missing.tsv; expect_rc 1 "bench of a missing manifest"
 expect_err "^phks: missing.tsv: "
 run "$phks" bench set/MANIFEST.tsv --seeds 0; expect_rc 2 "bench --seeds 0"
+expect_err "^phks: --seeds: '0' is not a whole number from 1 to 1000000$"
 # The comparison rows: a comparison run with a cache stores every output
 # of each version's one eigen-solve (the three feature functions'
 # signatures and the eigenvalues), and the other rows' runs read them;

@@ -12,6 +12,7 @@
 #include "bench/cli_bench_parts.h"
 
 #include <errno.h>
+#include <limits.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -98,10 +99,10 @@ static int parse_args(int argc, char **argv, bench_args *a)
     a->max_per_class = (unsigned long)-1;
     a->workers = cli_cpu_count();
     if (cli_parse(argc, argv, 1, opts, sizeof opts / sizeof opts[0], &n) ||
-        n != 1 || (max && cli_parse_count(max, 1, (unsigned long)-1,
-                                          &a->max_per_class)) ||
-        cli_parse_count(seeds, 1, 1000000, &a->seeds) ||
-        (jobs && cli_parse_count(jobs, 1, 1024, &a->workers)))
+        n != 1 || (max && cli_option_count("--max-per-class", max, 1,
+                                           ULONG_MAX, &a->max_per_class)) ||
+        cli_option_count("--seeds", seeds, 1, 1000000, &a->seeds) ||
+        (jobs && cli_option_count("-j", jobs, 1, 1024, &a->workers)))
         return -1;
     const char *eq = a->group ? strchr(a->group, '=') : NULL;
     if (a->group && (!eq || eq == a->group || !eq[1])) {

@@ -67,7 +67,7 @@ static int db_query(int argc, char **argv, const phks_options *defaults)
     if (cli_help(argc, argv, query_usage))
         return 0;
     if (cli_parse(argc, argv, 1, opts, 3, &n) != 0 || n != 2 ||
-        cli_parse_count(k_text, 1, 1000000, &k) != 0)
+        cli_option_count("-k", k_text, 1, 1000000, &k) != 0)
         return cli_usage(query_usage);
     if (png && !cli_has_suffix(png, ".png"))  /* as render's -o */
         return cli_error(png, "--png writes PNG only: name the contact "

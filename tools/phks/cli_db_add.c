@@ -413,7 +413,7 @@ int cli_db_add(int argc, char **argv, const phks_options *options)
         return 0;
     if (cli_parse(argc, argv, 1, opts, 4, &n) != 0 || n < 1 ||
         (manifest ? n != 1 || label : n < 2) ||
-        (jobs && cli_parse_count(jobs, 1, 1024, &workers) != 0))
+        (jobs && cli_option_count("-j", jobs, 1, 1024, &workers) != 0))
         return cli_usage(usage);
     add_job job = {.options = *options, .allow_duplicates = allow};
     pthread_mutex_init(&job.lock, NULL);

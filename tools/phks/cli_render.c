@@ -27,7 +27,8 @@ static const char usage[] =
     "                 phks_match\n"
     "  --size WxH     each mesh's tile, each side 16..4096 pixels (480x360)\n"
     "  --regions N    at most N regions, 1..100000 (15)\n"
-    "  --time T       HKS time of the regions in units of tau, 0..1e9 (5)\n"
+    "  --time T       HKS time of the regions in units of tau, above 0, at\n"
+    "                 most 1e9 (5)\n"
     "  --pairs P      the pairs of A B drawn: verified, all (the others\n"
     "                 faint) or none (verified)\n"
     "  --view AZ,EL   turned AZ degrees about the up axis, seen from EL\n"
@@ -102,32 +103,6 @@ static int parse_size(const char *text, render_request *r)
     return 0;
 }
 
-/* --regions N into r; 0, or 2 after saying what is wrong. */
-static int parse_regions(const char *text, render_request *r)
-{
-    char reason[160];
-    if (cli_parse_count(text, 1, 100000, &r->regions) == 0)
-        return 0;
-    snprintf(reason, sizeof reason,
-             "'%s' is not a whole number of regions from 1 to 100000", text);
-    return refuse("--regions", reason);
-}
-
-/* --time T, in units of tau, into r; 0, or 2 after saying what is
- * wrong. */
-static int parse_time(const char *text, render_request *r)
-{
-    char *end, reason[160];
-    double t = strtod(text, &end);
-    if (end != text && !*end && t >= 0 && t <= 1e9) {
-        r->time = t;
-        return 0;
-    }
-    snprintf(reason, sizeof reason,
-             "'%s' is not a time from 0 to 1e9 (in units of tau)", text);
-    return refuse("--time", reason);
-}
-
 /* "AZ,EL" in degrees, AZ in -360..360 and EL in -90..90; 0, or -1. */
 static int parse_view(const char *text, cli_view_options *o)
 {
@@ -193,9 +168,12 @@ static int parse_request(int argc, char **argv, const phks_options *options,
                                 "or two side by side");
     if (!r->out)
         return refuse("render", "no output: -o OUT.png names the picture");
-    if (parse_size(size, r) != 0 || (regions && parse_regions(regions, r)) ||
-        (time && parse_time(time, r)))
+    if (parse_size(size, r) != 0)
         return 2;
+    if ((regions &&
+         cli_option_count("--regions", regions, 1, 100000, &r->regions)) ||
+        (time && cli_option_time("--time", time, &r->time)))
+        return cli_usage(usage);
     if (pairs && parse_pairs(pairs, &r->pairs) != 0)
         return refuse("--pairs", "one of verified, all or none");
     if (view && parse_view(view, &r->view) != 0)

@@ -19,7 +19,7 @@ static const char usage[] =
     "segment MESH -o OUT.ply [--regions N] [--time T] [--ascii] [--json]\n"
     "  -o OUT.ply     the PLY to write (required; only PLY is written)\n"
     "  --regions N    at most N regions, 1..100000 (15)\n"
-    "  --time T       HKS time in units of tau, > 0 (5)\n"
+    "  --time T       HKS time in units of tau, above 0, at most 1e9 (5)\n"
     "  --ascii        ASCII PLY (binary little-endian)\n"
     "  --json         print the regions as JSON (text)\n"
     "  global options: see `phks --help`";
@@ -266,12 +266,10 @@ int cli_segment(int argc, char **argv, const phks_options *options)
     unsigned long regions;
     if (cli_help(argc, argv, usage))
         return 0;
+    double time;
     if (cli_parse(argc, argv, 1, opts, 5, &n) != 0 || n != 1 || !out ||
-        cli_parse_count(regions_text, 1, 100000, &regions) != 0)
-        return cli_usage(usage);
-    char *end;
-    double time = strtod(time_text, &end);
-    if (end == time_text || *end || !(time > 0 && time < 1e12))
+        cli_option_count("--regions", regions_text, 1, 100000, &regions) ||
+        cli_option_time("--time", time_text, &time))
         return cli_usage(usage);
     if (!cli_has_suffix(out, ".ply"))
         return cli_error(out, "segment writes PLY only: name the output "

@@ -61,6 +61,15 @@ int cli_parse(int argc, char **argv, int first, const cli_opt *opts,
 /* Strict unsigned decimal in [min, max]; 0 or -1 (prints nothing). */
 int cli_parse_count(const char *text, unsigned long min, unsigned long max,
                     unsigned long *out);
+/* The same for the value of `option`; on failure prints "phks: OPTION:
+ * 'TEXT' is not a whole number from MIN to MAX" (the caller then prints
+ * the usage) and returns -1. */
+int cli_option_count(const char *option, const char *text, unsigned long min,
+                     unsigned long max, unsigned long *out);
+/* An HKS time in units of tau, above 0 and at most 1e9, for `option`
+ * (render's and segment's --time); on failure prints why and returns
+ * -1. */
+int cli_option_time(const char *option, const char *text, double *out);
 
 /* ---- files (cli_util.c) ------------------------------------------------ */
 /* The whole file into a new buffer (free it); 0, or -1 with errno set. */

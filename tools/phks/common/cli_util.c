@@ -6,6 +6,7 @@
 #include "common/cli_common.h"
 
 #include <errno.h>
+#include <limits.h>
 #include <stdarg.h>
 #include <stdatomic.h>
 #include <stdlib.h>
@@ -164,6 +165,33 @@ int cli_parse_count(const char *text, unsigned long min, unsigned long max,
         return -1;
     *out = v;
     return 0;
+}
+
+int cli_option_count(const char *option, const char *text, unsigned long min,
+                     unsigned long max, unsigned long *out)
+{
+    if (cli_parse_count(text, min, max, out) == 0)
+        return 0;
+    if (max == ULONG_MAX)
+        fprintf(stderr, "phks: %s: '%s' is not a whole number of %lu or "
+                        "more\n", option, text, min);
+    else
+        fprintf(stderr, "phks: %s: '%s' is not a whole number from %lu to "
+                        "%lu\n", option, text, min, max);
+    return -1;
+}
+
+int cli_option_time(const char *option, const char *text, double *out)
+{
+    char *end;
+    double t = strtod(text, &end);
+    if (end != text && !*end && t > 0 && t <= 1e9) {
+        *out = t;
+        return 0;
+    }
+    fprintf(stderr, "phks: %s: '%s' is not a time above 0 and at most 1e9 "
+                    "(in units of tau)\n", option, text);
+    return -1;
 }
 
 int cli_read_file(const char *path, unsigned char **data, size_t *size)
