@@ -374,12 +374,22 @@ static PyObject *py_load(PyObject *self, PyObject *args)
 static PyObject *py_load_memory(PyObject *self, PyObject *args,
                                 PyObject *kwargs)
 {
-    static char *keywords[] = {"data", "format", NULL};
+    static char *keywords[] = {"data", "format", "max_bytes", "max_vertices",
+                               NULL};
     Py_buffer data;
     PyObject *format_obj = NULL;
-    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "y*|O:load_memory",
-                                     keywords, &data, &format_obj))
+    Py_ssize_t max_bytes = 0, max_vertices = 0;
+    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "y*|O$nn:load_memory",
+                                     keywords, &data, &format_obj, &max_bytes,
+                                     &max_vertices))
         return NULL;
+    if (max_bytes < 0 || max_vertices < 0) {
+        PyBuffer_Release(&data);
+        PyErr_SetString(PyExc_ValueError, "load_memory: max_bytes and "
+                                          "max_vertices must be 0 (no "
+                                          "limit) or more");
+        return NULL;
+    }
     int32_t format = PHKS_FORMAT_AUTO;
     if (format_obj &&
         parse_enum(format_obj, "format", format_names, &format) < 0) {
@@ -390,8 +400,9 @@ static PyObject *py_load_memory(PyObject *self, PyObject *args,
     phks_status st;
     /* The buffer stays exported (locked) while the GIL is released. */
     Py_BEGIN_ALLOW_THREADS
-    st = phks_mesh_load_memory(data.buf, (size_t)data.len,
-                               (phks_format)format, &mesh);
+    st = phks_mesh_load_memory_limited(data.buf, (size_t)data.len,
+                                       (phks_format)format, (size_t)max_bytes,
+                                       (size_t)max_vertices, &mesh);
     Py_END_ALLOW_THREADS
     PyBuffer_Release(&data);
     if (st != PHKS_OK)
@@ -408,8 +419,11 @@ static PyMethodDef mesh_functions[] = {
      "_has_assimp() -> bool: whether load() reads formats through assimp."},
     {"load_memory", (PyCFunction)(void (*)(void))py_load_memory,
      METH_VARARGS | METH_KEYWORDS,
-     "load_memory(data, format='auto') -> Mesh: a mesh file's bytes; format "
-     "'auto', 'off', 'obj', 'ply' or 'stl'."},
+     "load_memory(data, format='auto', *, max_bytes=0, max_vertices=0) -> "
+     "Mesh: a mesh file's bytes; format 'auto', 'off', 'obj', 'ply' or "
+     "'stl'. A service taking meshes from others sets max_bytes (after "
+     "gzip inflation) and max_vertices (0: no limit): above them, Error "
+     "TOO_LARGE before the memory is taken."},
     {NULL, NULL, 0, NULL}};
 
 int mesh_add_to_module(PyObject *module)

@@ -218,3 +218,22 @@ def test_geodesic_distances_errors():
         phks.geodesic_distances(mesh, 0, colour="red")
     with pytest.raises(TypeError):
         phks.geodesic_distances(mesh, 0, progress=print)
+
+
+def test_load_memory_limits():
+    """max_bytes and max_vertices refuse a mesh above them with TOO_LARGE
+    and the limit in the message; at the limits it loads."""
+    text = ("OFF\n4 2 0\n0 0 0\n1 0 0\n0 1 0\n1 1 0\n"
+            "3 0 1 2\n3 1 3 2\n").encode()
+    mesh = phks.load_memory(text, max_bytes=len(text), max_vertices=4)
+    assert mesh.vertex_count == 4
+    with pytest.raises(phks.Error) as e:
+        phks.load_memory(text, max_vertices=3)
+    assert e.value.status == phks.Status.TOO_LARGE
+    assert "the mesh has 4 vertices, more than the limit of 3" in str(e.value)
+    with pytest.raises(phks.Error) as e:
+        phks.load_memory(gzip.compress(text), max_bytes=len(text) - 1)
+    assert e.value.status == phks.Status.TOO_LARGE
+    assert "inflates to more than %d bytes" % (len(text) - 1) in str(e.value)
+    with pytest.raises(ValueError):
+        phks.load_memory(text, max_vertices=-1)
