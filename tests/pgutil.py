@@ -364,6 +364,19 @@ def signatures(phks, meshes, cache, extra_args=(), jobs=1):
         return list(pool.map(make, meshes))
 
 
+def tool_db(phks, path, files):
+    """A new database at path (any old one removed) of the tool's
+    signatures of files, in order (ids 1..n), duplicates kept."""
+    for f in (path, path + "-wal", path + "-shm"):
+        if os.path.exists(f):
+            os.remove(f)
+    r = subprocess.run([phks, "db", "add", path, "-j", "1",
+                        "--allow-duplicates"] + list(files),
+                       capture_output=True, text=True)
+    if r.returncode != 0:
+        raise SystemExit("phks db add: " + r.stderr)
+
+
 def hexfile(path):
     with open(path, "rb") as f:
         return f.read().hex()

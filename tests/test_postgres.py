@@ -52,20 +52,9 @@ many = entries + sigs[30:] + sigs[30:]
 print("%d signatures in %.1f s" % (len(sigs), time.time() - t0))
 
 
-def tool_db(path, files):
-    for f in (path, path + "-wal", path + "-shm"):
-        if os.path.exists(f):
-            os.remove(f)
-    r = subprocess.run([phks, "db", "add", path, "-j", "1",
-                        "--allow-duplicates"] + files,
-                       capture_output=True, text=True)
-    if r.returncode != 0:
-        raise SystemExit("phks db add: " + r.stderr)
-
-
 db, db_many = os.path.join(work, "t.db"), os.path.join(work, "many.db")
-tool_db(db, entries)
-tool_db(db_many, many)
+pgutil.tool_db(phks, db, entries)
+pgutil.tool_db(phks, db_many, many)
 
 pg = pgutil.Cluster(bindir, "single")
 print("cluster on port %d (%.1f s)" % (pg.port, time.time() - t0))

@@ -45,22 +45,11 @@ def tool_topk(db, q, k):
     return [(h["id"], float(h["score"])) for h in json.loads(r.stdout)]
 
 
-def make_tool_db(path, files):
-    for f in (path, path + "-wal", path + "-shm"):
-        if os.path.exists(f):
-            os.remove(f)
-    r = subprocess.run([phks, "db", "add", path, "-j", "1",
-                        "--allow-duplicates"] + files,
-                       capture_output=True, text=True)
-    if r.returncode != 0:
-        raise SystemExit("phks db add: " + r.stderr)
-
-
 def test_topk(pg, sigs, work):
     """40 entries, each twice: more than the shortlist of 32, with ties."""
     entries = sigs + sigs
     db = os.path.join(work, "topk.db")
-    make_tool_db(db, entries)
+    pgutil.tool_db(phks, db, entries)
     values = ",\n".join("(%d, '%s')" % (i + 1, pgutil.hexfile(e))
                         for i, e in enumerate(entries))
     pg.sql("CREATE TABLE shapes (id bigint PRIMARY KEY, "
