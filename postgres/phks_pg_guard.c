@@ -77,8 +77,8 @@ static phks_options options_of(bytea *blob, const char *what)
     return o;
 }
 
-PG_FUNCTION_INFO_V1(phks_pg_one_option_set);
-Datum phks_pg_one_option_set(PG_FUNCTION_ARGS)
+/* The column's name, after checking the trigger's declaration. */
+static const char *guarded_column(FunctionCallInfo fcinfo, int *attnum)
 {
     if (!CALLED_AS_TRIGGER(fcinfo))
         guard_misuse("not called as a trigger");
@@ -92,35 +92,60 @@ Datum phks_pg_one_option_set(PG_FUNCTION_ARGS)
         guard_misuse("takes one argument, the signature column's name");
     const char *column = td->tg_trigger->tgargs[0];
     TupleDesc desc = RelationGetDescr(td->tg_relation);
-    int attnum = SPI_fnumber(desc, column);
-    if (attnum <= 0)
+    *attnum = SPI_fnumber(desc, column);
+    if (*attnum <= 0)
         guard_misuse(psprintf("no column \"%s\"", column));
-    char *type = SPI_gettype(desc, attnum);
+    char *type = SPI_gettype(desc, *attnum);
     if (!type || strcmp(type, "phks_signature") != 0)
         guard_misuse(psprintf("column \"%s\" is not a phks_signature",
                               column));
-    HeapTuple row = TRIGGER_FIRED_BY_UPDATE(td->tg_event) ? td->tg_newtuple
-                                                          : td->tg_trigtuple;
-    bool isnull;
-    Datum d = SPI_getbinval(row, desc, attnum, &isnull);
-    if (isnull)
-        return PointerGetDatum(NULL);
-    bytea *reference = reference_signature(td->tg_relation, column,
-                                           &row->t_self);
+    return column;
+}
+
+/* The options of the table's other rows, or NULL while it has none. Found
+ * once per statement and kept in fn_extra, which lives as long as the
+ * statement: every row the statement writes is held to the same options,
+ * so a multi-row INSERT reads and decodes one reference, not one a row. */
+static const phks_options *table_options(FunctionCallInfo fcinfo,
+                                         const char *column, HeapTuple row)
+{
+    if (fcinfo->flinfo->fn_extra)
+        return fcinfo->flinfo->fn_extra;
+    Relation rel = ((TriggerData *)fcinfo->context)->tg_relation;
+    bytea *reference = reference_signature(rel, column, &row->t_self);
     if (!reference) {
         DirectFunctionCall2(pg_advisory_xact_lock_int4,
                             Int32GetDatum(GUARD_LOCK_CLASS),
-                            Int32GetDatum((int32)RelationGetRelid(
-                                td->tg_relation)));
-        reference = reference_signature(td->tg_relation, column,
-                                        &row->t_self);
+                            Int32GetDatum((int32)RelationGetRelid(rel)));
+        reference = reference_signature(rel, column, &row->t_self);
     }
     if (!reference)
+        return NULL;
+    phks_options *o = MemoryContextAlloc(fcinfo->flinfo->fn_mcxt, sizeof *o);
+    *o = options_of(reference, "phks_one_option_set");
+    fcinfo->flinfo->fn_extra = o;
+    return o;
+}
+
+PG_FUNCTION_INFO_V1(phks_pg_one_option_set);
+Datum phks_pg_one_option_set(PG_FUNCTION_ARGS)
+{
+    int attnum;
+    const char *column = guarded_column(fcinfo, &attnum);
+    TriggerData *td = (TriggerData *)fcinfo->context;
+    HeapTuple row = TRIGGER_FIRED_BY_UPDATE(td->tg_event) ? td->tg_newtuple
+                                                          : td->tg_trigtuple;
+    bool isnull;
+    Datum d = SPI_getbinval(row, RelationGetDescr(td->tg_relation), attnum,
+                            &isnull);
+    if (isnull)
+        return PointerGetDatum(NULL);
+    const phks_options *theirs = table_options(fcinfo, column, row);
+    if (!theirs)
         return PointerGetDatum(NULL);
     phks_options mine = options_of(DatumGetByteaPP(d), "phks_one_option_set");
-    phks_options theirs = options_of(reference, "phks_one_option_set");
     char detail[256];
-    if (phks_options_compare(&mine, &theirs, PHKS_SPELLING_C, detail,
+    if (phks_options_compare(&mine, theirs, PHKS_SPELLING_C, detail,
                              sizeof detail) != PHKS_OK)
         ereport(ERROR,
                 (errcode(ERRCODE_INVALID_PARAMETER_VALUE),

@@ -102,6 +102,17 @@ signal.signal(signal.SIGTERM, _cleanup)
 signal.signal(signal.SIGINT, _cleanup)
 
 
+# What a test found wrong: check() records and prints each failure, and
+# the test exits 1 when the list is not empty.
+failures = []
+
+
+def check(cond, what):
+    if not cond:
+        failures.append(what)
+        print("FAIL: " + what)
+
+
 class SQLError(Exception):
     pass
 

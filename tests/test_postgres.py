@@ -30,13 +30,8 @@ pgutil.install_extension(build_root)
 work = os.path.join(build_root, "tests", "postgres-work")
 os.makedirs(work, exist_ok=True)
 
-failures = []
-
-
-def check(cond, what):
-    if not cond:
-        failures.append(what)
-        print("FAIL: " + what)
+failures = pgutil.failures
+check = pgutil.check
 
 
 # More entries than phks_db_query's shortlist of 32 for the two-stage

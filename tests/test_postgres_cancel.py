@@ -31,13 +31,8 @@ build_root, part = sys.argv[1], sys.argv[2]
 STOP_WITHIN = 1.0  # seconds: the promise
 POINTS = (0.1, 0.3, 0.5, 0.7, 0.8)  # fractions of the uninterrupted run
 
-failures = []
-
-
-def check(cond, what):
-    if not cond:
-        failures.append(what)
-        print("FAIL: " + what)
+failures = pgutil.failures
+check = pgutil.check
 
 
 def psql_command(cluster, script):

@@ -50,13 +50,8 @@ shared = sys.argv[4] if len(sys.argv) > 4 else os.environ.get(
 source_root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 corpus = os.path.join(source_root, "fuzz", "corpus")
 
-failures = []
-
-
-def check(cond, what):
-    if not cond:
-        failures.append(what)
-        print("FAIL: " + what)
+failures = pgutil.failures
+check = pgutil.check
 
 
 def sql_text(s):

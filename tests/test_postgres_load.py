@@ -49,13 +49,8 @@ pgutil.install_extension(build_root)
 work = os.path.join(build_root, "tests", "postgres-work")
 os.makedirs(work, exist_ok=True)
 
-failures = []
-
-
-def check(cond, what):
-    if not cond:
-        failures.append(what)
-        print("FAIL: " + what)
+failures = pgutil.failures
+check = pgutil.check
 
 
 def table_sql(name):

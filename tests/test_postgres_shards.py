@@ -29,13 +29,8 @@ sigs = pgutil.signatures(phks, meshes, os.path.join(work, "sigs-" + source))
 entries = sigs[:24] + [sigs[5]]  # a tie that only the id breaks
 queries = sigs[24:] + sigs[:3]
 
-failures = []
-
-
-def check(cond, what):
-    if not cond:
-        failures.append(what)
-        print("FAIL: " + what)
+failures = pgutil.failures
+check = pgutil.check
 
 
 SHARDS = 3

@@ -28,13 +28,8 @@ build_root, phks = sys.argv[1], sys.argv[2]
 shared = sys.argv[3] if len(sys.argv) > 3 else os.environ.get(
     "PHKS_SHARED_MESHES", "")
 
-failures = []
-
-
-def check(cond, what):
-    if not cond:
-        failures.append(what)
-        print("FAIL: " + what)
+failures = pgutil.failures
+check = pgutil.check
 
 
 def tool_topk(db, q, k):

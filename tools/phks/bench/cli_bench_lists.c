@@ -73,7 +73,7 @@ static int parse_args(int argc, char **argv, lists_args *a)
     int n;
     a->workers = cli_cpu_count();
     if (cli_parse(argc, argv, 1, opts, sizeof opts / sizeof opts[0], &n) ||
-        (jobs && cli_parse_count(jobs, 1, 1024, &a->workers)))
+        (jobs && cli_option_count("-j", jobs, 1, 1024, &a->workers)))
         return -1;
     if (n != 0) {
         fprintf(stderr, "phks: bench: no MANIFEST with --db, --queries or "

@@ -61,6 +61,16 @@ static void fit(const phks_mesh *mesh, cli_view *view)
     view->oy = view->y + view->h / 2.0 + view->scale * (lo[1] + hi[1]) / 2;
 }
 
+/* Pixel bounds i0..i1 x j0..j1 cut to the image. */
+static void clip_box(const cli_image *fine, int *i0, int *i1, int *j0,
+                     int *j1)
+{
+    *i0 = *i0 < 0 ? 0 : *i0;
+    *j0 = *j0 < 0 ? 0 : *j0;
+    *i1 = *i1 >= fine->width ? fine->width - 1 : *i1;
+    *j1 = *j1 >= fine->height ? fine->height - 1 : *j1;
+}
+
 static void raster(cli_image *fine, double *depth, const double a[3],
                    const double b[3], const double c[3],
                    const unsigned char rgb[3])
@@ -72,10 +82,7 @@ static void raster(cli_image *fine, double *depth, const double a[3],
     int i1 = (int)ceil(fmax(a[0], fmax(b[0], c[0])));
     int j0 = (int)floor(fmin(a[1], fmin(b[1], c[1])));
     int j1 = (int)ceil(fmax(a[1], fmax(b[1], c[1])));
-    i0 = i0 < 0 ? 0 : i0;
-    j0 = j0 < 0 ? 0 : j0;
-    i1 = i1 >= fine->width ? fine->width - 1 : i1;
-    j1 = j1 >= fine->height ? fine->height - 1 : j1;
+    clip_box(fine, &i0, &i1, &j0, &j1);
     for (int j = j0; j <= j1; j++)
         for (int i = i0; i <= i1; i++) {
             double x = i + 0.5, y = j + 0.5;
@@ -121,10 +128,7 @@ static void boundary_edge(cli_image *fine, const double *depth,
     double len2 = dx * dx + dy * dy;
     int i0 = (int)floor(fmin(a[0], b[0]) - r), i1 = (int)ceil(fmax(a[0], b[0]) + r);
     int j0 = (int)floor(fmin(a[1], b[1]) - r), j1 = (int)ceil(fmax(a[1], b[1]) + r);
-    i0 = i0 < 0 ? 0 : i0;
-    j0 = j0 < 0 ? 0 : j0;
-    i1 = i1 >= fine->width ? fine->width - 1 : i1;
-    j1 = j1 >= fine->height ? fine->height - 1 : j1;
+    clip_box(fine, &i0, &i1, &j0, &j1);
     for (int j = j0; j <= j1; j++)
         for (int i = i0; i <= i1; i++) {
             double px = i + 0.5 - a[0], py = j + 0.5 - a[1];
