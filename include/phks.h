@@ -243,6 +243,27 @@ typedef enum phks_matching {
     PHKS_MATCHING_VERIFIED = 1
 } phks_matching;
 
+/* What proposes the correspondences that PHKS_MATCHING_VERIFIED checks:
+ * the description of the surface around each of a signature's points
+ * (features and samples). Since 0.3.0. */
+typedef enum phks_local_descriptor {
+    /* The feature vectors themselves (HKS at the 15 time scales), as
+     * 0.2.0 did. Heat at the larger scales sums over the whole shape, so
+     * a cut changes every vector. */
+    PHKS_LOCAL_DESCRIPTOR_HEAT = 0,
+    /* Spin images (Johnson and Hebert 1999) of the surface within
+     * straight-line balls of five radii around each point, on a ladder of
+     * steps of sqrt(2) (so a change of scale is a shift along it): how
+     * the area of the surface, integrated over its triangles, lies by
+     * distance from the point's normal line and height along it. Local
+     * and extrinsic: a cut or a pose change away from the ball leaves it
+     * alone. Orientation-free (the normal's sign is taken from the
+     * surface itself), so triangle soups with inconsistent winding get
+     * the same images. 120 more bytes per point in a blob
+     * (docs/method.md section 15). */
+    PHKS_LOCAL_DESCRIPTOR_SPIN = 1
+} phks_local_descriptor;
+
 typedef enum phks_solver {
     /* Dense LAPACK for small meshes, block Lanczos above. */
     PHKS_SOLVER_AUTO = 0,
@@ -349,7 +370,10 @@ typedef struct phks_options {
                                 NEAREST). VERIFIED signatures also hold
                                 the distances between their feature
                                 points                                   */
-    uint32_t reserved_pad;   /* zero                                     */
+    int32_t local_descriptor; /* phks_local_descriptor: what proposes the
+                                correspondences VERIFIED checks: SPIN
+                                (since 0.3.0; HEAT before). Ignored with
+                                NEAREST                                  */
     uint64_t reserved[20];   /* zero; room for fields of later versions  */
 } phks_options;
 

@@ -42,6 +42,9 @@ struct phks_signature {
                               distance to the mesh boundary (unit box;
                               INFINITY on a closed mesh); NULL with
                               NEAREST                                    */
+    uint8_t *spin;         /* VERIFIED with PHKS_LOCAL_DESCRIPTOR_SPIN:
+                              points x PHKS__SPIN_BYTES, each point's
+                              spin images (geometry.h); NULL otherwise  */
 };
 
 /* Features and samples. */
@@ -64,7 +67,8 @@ static inline size_t phks__pair_count(size_t count)
  * points of length values each. */
 phks_status phks__signature_alloc(size_t count, size_t samples, size_t length,
                                   phks_signature **out);
-/* Room for sig->geodesic and sig->boundary. */
+/* Room for sig->geodesic and sig->boundary, and sig->spin (zero) when
+ * sig->options asks for spin images: set sig->options first. */
 phks_status phks__signature_alloc_layout(phks_signature *sig);
 
 /* ---- where the points lie (signature_layout.c) */

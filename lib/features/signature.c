@@ -19,6 +19,7 @@ void phks_signature_free(phks_signature *sig)
     phks__free(sig->vectors);
     phks__free(sig->geodesic);
     phks__free(sig->boundary);
+    phks__free(sig->spin);
     phks__free(sig);
 }
 
@@ -49,8 +50,13 @@ phks_status phks__signature_alloc_layout(phks_signature *sig)
     size_t points = phks__signature_points(sig), pairs = phks__pair_count(points);
     sig->geodesic = phks__malloc_array(pairs ? pairs : 1, sizeof *sig->geodesic);
     sig->boundary = phks__malloc_array(points, sizeof *sig->boundary);
-    return sig->geodesic && sig->boundary ? PHKS_OK
-                                          : phks__fail_oom("signature layout");
+    if (sig->options.local_descriptor == PHKS_LOCAL_DESCRIPTOR_SPIN)
+        sig->spin = phks__calloc(points ? points : 1, PHKS__SPIN_BYTES);
+    bool spin_ok = sig->spin ||
+                   sig->options.local_descriptor != PHKS_LOCAL_DESCRIPTOR_SPIN;
+    return sig->geodesic && sig->boundary && spin_ok
+               ? PHKS_OK
+               : phks__fail_oom("signature layout");
 }
 
 /* The spectrum must come from the same operator as the options describe;

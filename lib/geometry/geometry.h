@@ -209,6 +209,29 @@ phks_status phks__geodesic_run(const phks__geodesic_graph *graph,
                                uint32_t source, const uint32_t *targets,
                                size_t target_count, double *distance);
 
+/* ---- spin images (spin_image.c) */
+/* Each point's description of the surface around it (docs/method.md
+ * section 15): for each of PHKS__SPIN_RADII radii r_k = PHKS__SPIN_RADIUS
+ * 2^(k/2) in the unit box, the area of the surface within straight-line
+ * distance r_k of the point, binned by its distance from the point's
+ * normal line (PHKS__SPIN_ALPHA bins over [0, r_k)) and its height along
+ * the normal (PHKS__SPIN_BETA bins over [-r_k, r_k)), each bin's share
+ * of the ball's area stored as round(255 sqrt(share)): an image's bytes
+ * over 255 are a unit vector, and the distance of two of them is
+ * Hellinger's. */
+#define PHKS__SPIN_RADII 5
+#define PHKS__SPIN_RADIUS 0.04
+#define PHKS__SPIN_ALPHA 4
+#define PHKS__SPIN_BETA 6
+#define PHKS__SPIN_IMAGE (PHKS__SPIN_ALPHA * PHKS__SPIN_BETA)
+#define PHKS__SPIN_BYTES (PHKS__SPIN_RADII * PHKS__SPIN_IMAGE)
+/* The images of `count` vertices of um->mesh into out (count x
+ * PHKS__SPIN_BYTES), the radii in order, each image row-major by
+ * distance from the normal line. Fails only for want of memory. */
+phks_status phks__spin_images(const phks__unit_mesh *um,
+                              const uint32_t *vertices, size_t count,
+                              uint8_t *out);
+
 /* ---- boundary proximity (boundary.c) */
 /* distance[v] = straight-line distance from vertex v to the nearest vertex
  * on a boundary edge, in the unit box of um, capped at cap (cap > 0; all
