@@ -259,7 +259,7 @@ typedef enum phks_local_descriptor {
      * and extrinsic: a cut or a pose change away from the ball leaves it
      * alone. Orientation-free (the normal's sign is taken from the
      * surface itself), so triangle soups with inconsistent winding get
-     * the same images. 120 more bytes per point in a blob
+     * the same images. 100 more bytes per point in a blob
      * (docs/method.md section 15). */
     PHKS_LOCAL_DESCRIPTOR_SPIN = 1
 } phks_local_descriptor;

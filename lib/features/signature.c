@@ -299,6 +299,9 @@ static phks_status signature_of(const phks__unit_mesh *um,
     st = feature_vectors(um, spec, opt, sig);
     if (st == PHKS_OK && verified)
         st = phks__signature_layout(um, opt, sig);
+    if (st == PHKS_OK && sig->spin)
+        st = phks__spin_images(um, sig->vertex, phks__signature_points(sig),
+                               sig->spin);
     if (st == PHKS_OK)
         st = phks__progress(opt, PHKS_STAGE_PERSISTENCE, 1);
     if (st != PHKS_OK) {

@@ -89,10 +89,17 @@ typedef struct proposal {
  * over only when its set could not be the best. */
 #define BOUND_MARGIN 1e-9
 
-/* A proposal's own affinity, from the distance of its vectors over
- * `length` time scales: 1 for equal vectors. */
-static double proposal_affinity(double distance, size_t length)
+/* Hellinger distance of two points' spin images at which a proposal's
+ * own affinity falls to 1/e (PHKS_LOCAL_DESCRIPTOR_SPIN). */
+#define SPIN_SIGMA 0.1
+
+/* A proposal's own affinity, from the distance of its descriptors: the
+ * mean Hellinger distance of the spin images, or the distance of its
+ * vectors over `length` time scales. 1 for equal descriptors. */
+static double proposal_affinity(double distance, bool spin, size_t length)
 {
+    if (spin)
+        return exp(-distance / SPIN_SIGMA);
     return exp(-distance / (VECTOR_SIGMA * (double)length));
 }
 
@@ -241,7 +248,12 @@ struct phks__verifier {
                             no scale changes                           */
     double *sum, *last; /* nb each: distances' running sums and steps   */
     double *weight_sum;  /* na x nb: the step weights' sum                */
-    double *dist;     /* na x nb vector distances                         */
+    double *dist;     /* na x nb descriptor distances                     */
+    bool spin;        /* both carry spin images, which then propose       */
+    float *ia, *ib;   /* their images as unit vectors, PHKS__SPIN_BYTES a
+                         point                                          */
+    double *image_distance; /* na x nb x radii x radii: the Hellinger
+                               distance of a's image k and b's image m   */
     double *ga, *gb;  /* a's features' and b's points' distances, square  */
     double *gb_scaled; /* gb times the scale being tried                  */
     proposal *p;
@@ -375,6 +387,59 @@ static void distances(phks__verifier *c, const double *vb)
     }
 }
 
+/* A signature's images as unit vectors (their bytes over 255). */
+static void unit_images(const phks_signature *s, size_t points, float *out)
+{
+    for (size_t k = 0; k < points * PHKS__SPIN_BYTES; k++)
+        out[k] = (float)s->spin[k] / 255.0f;
+}
+
+/* Every radius of every feature of a against every radius of every point
+ * of b, once per entry: the scales pick among them. */
+static void image_distances(phks__verifier *c)
+{
+    const size_t R = PHKS__SPIN_RADII, I = PHKS__SPIN_IMAGE;
+    for (size_t i = 0; i < c->na; i++)
+        for (size_t j = 0; j < c->nb; j++)
+            for (size_t k = 0; k < R; k++)
+                for (size_t m = 0; m < R; m++) {
+                    const float *x = c->ia + i * PHKS__SPIN_BYTES + k * I;
+                    const float *y = c->ib + j * PHKS__SPIN_BYTES + m * I;
+                    double sum = 0;
+                    for (size_t b = 0; b < I; b++) {
+                        double d = (double)x[b] - (double)y[b];
+                        sum += d * d;
+                    }
+                    c->image_distance[((i * c->nb + j) * R + k) * R + m] =
+                        sqrt(sum / 2);
+                }
+}
+
+/* dist(i, j) from the images at the scale 2^(steps/4) of a's unit box
+ * over b's: a's radius k is b's k - steps/2 on the ladder of steps
+ * sqrt(2), between two of b's radii at an odd step (the mean of both
+ * distances). The mean over a's radii that b has; INFINITY when none. */
+static void image_distances_at(phks__verifier *c, int steps)
+{
+    const int R = PHKS__SPIN_RADII;
+    for (size_t i = 0; i < c->na; i++)
+        for (size_t j = 0; j < c->nb; j++) {
+            const double *h =
+                c->image_distance + (i * c->nb + j) * (size_t)(R * R);
+            double sum = 0;
+            int used = 0;
+            for (int k = 0; k < R; k++) {
+                int twice = 2 * k - steps, odd = twice & 1;
+                int low = (twice - odd) / 2, high = low + odd;
+                if (low < 0 || high >= R)
+                    continue;
+                sum += (h[k * R + low] + h[k * R + high]) / 2;
+                used++;
+            }
+            c->dist[i * c->nb + j] = used ? sum / used : INFINITY;
+        }
+}
+
 /* Each query feature's CANDIDATES nearest entry points (lower index
  * first on ties); the affinities of those kept only. The boundary
  * weights have their say once, inside dist: a proposal's affinity was
@@ -400,7 +465,7 @@ static void propose(phks__verifier *c)
         }
         for (size_t m = 0; m < have; m++) {
             uint32_t j = mine[m].j;
-            double u = proposal_affinity(row[j], c->length);
+            double u = proposal_affinity(row[j], c->spin, c->length);
             mine[m] = (proposal){(uint32_t)i, j, u, sqrt(u)};
         }
         c->count += have;
@@ -580,9 +645,10 @@ static double select_set(phks__verifier *c, uint32_t *pair_of)
     return total;
 }
 
-/* The proposals at one scale. */
-static void propose_at(phks__verifier *c, double scale)
+/* The proposals at the scale 2^(steps/4). */
+static void propose_at(phks__verifier *c, int steps)
 {
+    double scale = exp2(steps / 4.0);
     const double *vb = c->vb;
     if (scale != 1 &&
         c->a->options.hks_scaling == PHKS_HKS_SCALING_LOCAL_AREA) {
@@ -592,7 +658,10 @@ static void propose_at(phks__verifier *c, double scale)
     c->scale = scale;
     for (size_t k = 0; k < c->nb * c->nb; k++)
         c->gb_scaled[k] = scale * c->gb[k];
-    distances(c, vb);
+    if (c->spin)
+        image_distances_at(c, steps);
+    else
+        distances(c, vb);
     propose(c);
 }
 
@@ -618,7 +687,7 @@ static double best_affinity(phks__verifier *c, uint32_t *pair_of)
     int best_k = 0;
     for (int t = 0; t <= 2 * SCALE_STEPS; t++) {
         int k = (t + 1) / 2 * (t % 2 ? -1 : 1);
-        propose_at(c, exp2(k / 4.0));
+        propose_at(c, k);
         if (best >= 0 && affinity_bound(c->p, c->count) * (1 + BOUND_MARGIN) < best)
             continue;
         double e = verified_set(c, c->trial);
@@ -638,7 +707,7 @@ static double best_affinity(phks__verifier *c, uint32_t *pair_of)
      (c)->sum, (c)->last, (c)->weight_sum, (c)->dist, (c)->ga,              \
      (c)->gb, (c)->gb_scaled, (c)->p, (c)->pair, (c)->pair_ga,              \
      (c)->pair_gb, (c)->pair_e, (c)->matrix, (c)->x, (c)->y, (c)->order,    \
-     (c)->set, (c)->trial}
+     (c)->set, (c)->trial, (c)->ia, (c)->ib, (c)->image_distance}
 
 void phks__verifier_free(phks__verifier *c)
 {
@@ -681,8 +750,17 @@ static bool allocate(phks__verifier *c, size_t nb)
     c->order = phks__malloc_array(most, sizeof *c->order);
     c->set = phks__malloc_array(most, sizeof *c->set);
     c->trial = phks__malloc_array(na + 1, sizeof *c->trial);
+    if (c->a->spin) {
+        size_t R = PHKS__SPIN_RADII;
+        c->ia = phks__malloc_array(na + 1, PHKS__SPIN_BYTES * sizeof *c->ia);
+        c->ib = phks__malloc_array(nb + 1, PHKS__SPIN_BYTES * sizeof *c->ib);
+        c->image_distance = phks__malloc_array(
+            (na + 1) * (nb + 1), R * R * sizeof *c->image_distance);
+    }
+    /* The images' arrays, last in OWNED, stay NULL without images. */
     void *owned[] = OWNED(c);
-    for (size_t k = 0; k < sizeof owned / sizeof owned[0]; k++)
+    size_t needed = sizeof owned / sizeof owned[0] - (c->a->spin ? 0 : 3);
+    for (size_t k = 0; k < needed; k++)
         if (!owned[k])
             return false;
     return true;
@@ -707,6 +785,8 @@ phks_status phks__verifier_new(const phks_signature *a, size_t points,
     compared_vectors(a, c->na, c->va);
     boundary_weights(a, c->na, c->wa);
     square_distances(a, c->na, c->ga);
+    if (a->spin)
+        unit_images(a, c->na, c->ia);
     *out = c;
     return PHKS_OK;
 }
@@ -727,6 +807,11 @@ void phks__verifier_run(phks__verifier *c, const phks_signature *b,
     boundary_weights(b, c->nb, c->wb);
     step_weights(c);
     square_distances(b, c->nb, c->gb);
+    c->spin = c->a->spin && b->spin;
+    if (c->spin) {
+        unit_images(b, c->nb, c->ib);
+        image_distances(c);
+    }
     *score = verified_score(nearest, best_affinity(c, pair_of), c->na);
 }
 

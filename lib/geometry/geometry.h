@@ -215,14 +215,16 @@ phks_status phks__geodesic_run(const phks__geodesic_graph *graph,
  * 2^(k/2) in the unit box, the area of the surface within straight-line
  * distance r_k of the point, binned by its distance from the point's
  * normal line (PHKS__SPIN_ALPHA bins over [0, r_k)) and its height along
- * the normal (PHKS__SPIN_BETA bins over [-r_k, r_k)), each bin's share
+ * the normal (PHKS__SPIN_BETA bins over [-r_k, r_k), an odd count: a
+ * flat surface, height 0, lies inside the middle bin rather than on the
+ * edge between two, where rounding would pick one), each bin's share
  * of the ball's area stored as round(255 sqrt(share)): an image's bytes
  * over 255 are a unit vector, and the distance of two of them is
  * Hellinger's. */
 #define PHKS__SPIN_RADII 5
 #define PHKS__SPIN_RADIUS 0.04
 #define PHKS__SPIN_ALPHA 4
-#define PHKS__SPIN_BETA 6
+#define PHKS__SPIN_BETA 5
 #define PHKS__SPIN_IMAGE (PHKS__SPIN_ALPHA * PHKS__SPIN_BETA)
 #define PHKS__SPIN_BYTES (PHKS__SPIN_RADII * PHKS__SPIN_IMAGE)
 /* The images of `count` vertices of um->mesh into out (count x
