@@ -42,6 +42,9 @@ struct phks_signature {
                               distance to the mesh boundary (unit box;
                               INFINITY on a closed mesh); NULL with
                               NEAREST                                    */
+    double unit_scale;     /* positions times this lie in the unit box;
+                              0 where unknown (blobs of format 4 and
+                              older), NAN never                          */
     uint8_t *spin;         /* VERIFIED with PHKS_LOCAL_DESCRIPTOR_SPIN:
                               points x PHKS__SPIN_BYTES, each point's
                               spin images (geometry.h); NULL otherwise  */

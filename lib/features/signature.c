@@ -281,6 +281,7 @@ static phks_status signature_of(const phks__unit_mesh *um,
     if (st != PHKS_OK)
         return st;
     sig->options = *opt;
+    sig->unit_scale = um->scale;
     sig->options.progress = NULL;
     sig->options.progress_user = NULL;
     for (size_t i = 0; i < found; i++) {

@@ -155,6 +155,14 @@ static inline double disagreement(double ga, double gb, double slack)
     return DISAGREEMENT(ga, gb, slack);
 }
 
+/* How far two straight-line distances disagree, in DISTANCE_SIGMA: as
+ * DISAGREEMENT, but either's excess counts in full (a cut leaves a
+ * straight line as it was). */
+static double straight_disagreement(double sa, double sb, double slack)
+{
+    return (sa - sb) / (larger(sa, sb) + slack) / DISTANCE_SIGMA;
+}
+
 /* How well two distances agree given their disagreement e, 1 at equality
  * (see DISTANCE_SIGMA); 0 beyond 3 sigma, where exp(-9) is nothing to a
  * set's affinity. */
@@ -250,6 +258,8 @@ struct phks__verifier {
     double *weight_sum;  /* na x nb: the step weights' sum                */
     double *dist;     /* na x nb descriptor distances                     */
     bool spin;        /* both carry spin images, which then propose       */
+    bool both;        /* ... and the vectors too */
+    double *dist_image;
     float *ia, *ib;   /* their images as unit vectors, PHKS__SPIN_BYTES a
                          point                                          */
     double *image_distance; /* na x nb x radii x radii: the Hellinger
@@ -260,6 +270,10 @@ struct phks__verifier {
     size_t count;
     pair_ref *pair;    /* the pairs whose matrix entry is computed        */
     double *pair_ga, *pair_gb, *pair_e; /* their distances, disagreement */
+    bool straight;    /* both know their unit boxes: pairs agree in
+                         straight-line distance too                       */
+    double *sa, *sb, *sb_scaled; /* as ga, gb, gb_scaled in straight lines */
+    double *pair_sa, *pair_sb;
     size_t pair_count;
     double *matrix;    /* count x stride, symmetric in its first count
                           columns, zero in the padding                   */
@@ -281,6 +295,24 @@ static void square_distances(const phks_signature *s, size_t points,
         for (size_t i = 0; i < j; i++)
             out[i * points + j] = out[j * points + i] =
                 s->geodesic[phks__pair_index(i, j)];
+    }
+}
+
+/* The straight-line distances between s's first `points` points in its
+ * unit box, as a square table. */
+static void straight_distances(const phks_signature *s, size_t points,
+                               double *out)
+{
+    for (size_t j = 0; j < points; j++) {
+        out[j * points + j] = 0;
+        for (size_t i = 0; i < j; i++) {
+            const double *p = s->position + 3 * i, *q = s->position + 3 * j;
+            double d2 = 0;
+            for (int k = 0; k < 3; k++)
+                d2 += (p[k] - q[k]) * (p[k] - q[k]);
+            out[i * points + j] = out[j * points + i] =
+                sqrt(d2) * s->unit_scale;
+        }
     }
 }
 
@@ -436,7 +468,7 @@ static void image_distances_at(phks__verifier *c, int steps)
                 sum += (h[k * R + low] + h[k * R + high]) / 2;
                 used++;
             }
-            c->dist[i * c->nb + j] = used ? sum / used : INFINITY;
+            c->dist_image[i * c->nb + j] = used ? sum / used : INFINITY;
         }
 }
 
@@ -447,25 +479,46 @@ static void image_distances_at(phks__verifier *c, int steps)
  * where the heat of most points reaches the silhouette, silenced the
  * geometry (docs/retrieval.md, "Every direction on the whole
  * benchmark"). */
+/* The `per` nearest of b's points by row into mine[].j, nearest first
+ * (lower index on ties), leaving out the first `given` of mine; returns
+ * how many of mine are taken, given included. */
+static size_t nearest_points(const double *row, size_t nb, size_t per,
+                             proposal *mine, size_t given)
+{
+    size_t have = 0;
+    proposal *fresh = mine + given;
+    for (size_t j = 0; j < nb; j++) {
+        bool taken = false;
+        for (size_t g = 0; g < given; g++)
+            taken = taken || mine[g].j == j;
+        if (taken || (have == per && row[j] >= row[fresh[per - 1].j]))
+            continue;
+        size_t at = have < per ? have++ : per - 1;
+        for (; at > 0 && row[fresh[at - 1].j] > row[j]; at--)
+            fresh[at] = fresh[at - 1];
+        fresh[at].j = (uint32_t)j;
+    }
+    return given + have;
+}
+
 static void propose(phks__verifier *c)
 {
     size_t nb = c->nb, per = nb < CANDIDATES ? nb : CANDIDATES;
     c->count = 0;
     for (size_t i = 0; i < c->na; i++) {
         const double *row = c->dist + i * nb;
+        const double *image = c->dist_image + i * nb;
         proposal *mine = c->p + c->count;
         size_t have = 0;
-        for (size_t j = 0; j < nb; j++) {
-            if (have == per && row[j] >= row[mine[per - 1].j])
-                continue;
-            size_t at = have < per ? have++ : per - 1;
-            for (; at > 0 && row[mine[at - 1].j] > row[j]; at--)
-                mine[at] = mine[at - 1];
-            mine[at].j = (uint32_t)j;
-        }
+        if (c->spin)
+            have = nearest_points(image, nb, per, mine, 0);
+        if (!c->spin || c->both)
+            have = nearest_points(row, nb, per, mine, have);
         for (size_t m = 0; m < have; m++) {
             uint32_t j = mine[m].j;
-            double u = proposal_affinity(row[j], c->spin, c->length);
+            double u = c->spin && !c->both ? 0 : proposal_affinity(row[j], false, c->length);
+            if (c->spin)
+                u = fmax(u, proposal_affinity(image[j], true, c->length));
             mine[m] = (proposal){(uint32_t)i, j, u, sqrt(u)};
         }
         c->count += have;
@@ -481,8 +534,14 @@ static double set_pair_weight(const phks__verifier *c, const proposal *x,
 {
     double ga = c->ga[x->i * c->na + y->i];
     double gb = c->gb_scaled[x->j * c->nb + y->j];
-    return pair_weight(agreement(ga, gb, disagreement(ga, gb, c->slack)), x,
-                       y);
+    double agreed = agreement(ga, gb, disagreement(ga, gb, c->slack));
+    if (c->straight) {
+        double sa = c->sa[x->i * c->na + y->i];
+        double sb = c->sb_scaled[x->j * c->nb + y->j];
+        agreed = fmax(agreed, agreement(sa, sb, straight_disagreement(
+                                                    sa, sb, c->slack)));
+    }
+    return pair_weight(agreed, x, y);
 }
 
 /* The pairs of proposals that share no point, with both distances:
@@ -504,6 +563,10 @@ static void candidate_pairs(phks__verifier *c)
             c->pair[k] = (pair_ref){(uint32_t)p, (uint32_t)q};
             c->pair_ga[k] = ga[y->i];
             c->pair_gb[k] = gb[y->j];
+            if (c->straight) {
+                c->pair_sa[k] = c->sa[x->i * c->na + y->i];
+                c->pair_sb[k] = c->sb_scaled[x->j * c->nb + y->j];
+            }
             k++;
         }
     }
@@ -542,9 +605,13 @@ static void affinities(phks__verifier *c)
                   c->pair_e);
     for (size_t k = 0; k < c->pair_count; k++) {
         size_t p = c->pair[k].p, q = c->pair[k].q;
-        double w = pair_weight(agreement(c->pair_ga[k], c->pair_gb[k],
-                                         c->pair_e[k]),
-                               c->p + p, c->p + q);
+        double agreed = agreement(c->pair_ga[k], c->pair_gb[k], c->pair_e[k]);
+        if (c->straight) {
+            double sa = c->pair_sa[k], sb = c->pair_sb[k];
+            agreed = fmax(agreed, agreement(sa, sb, straight_disagreement(
+                                                        sa, sb, c->slack)));
+        }
+        double w = pair_weight(agreed, c->p + p, c->p + q);
         if (w > 0)
             c->matrix[p * m + q] = c->matrix[q * m + p] = w;
     }
@@ -658,9 +725,12 @@ static void propose_at(phks__verifier *c, int steps)
     c->scale = scale;
     for (size_t k = 0; k < c->nb * c->nb; k++)
         c->gb_scaled[k] = scale * c->gb[k];
+    if (c->straight)
+        for (size_t k = 0; k < c->nb * c->nb; k++)
+            c->sb_scaled[k] = scale * c->sb[k];
     if (c->spin)
         image_distances_at(c, steps);
-    else
+    if (!c->spin || c->both)
         distances(c, vb);
     propose(c);
 }
@@ -707,7 +777,8 @@ static double best_affinity(phks__verifier *c, uint32_t *pair_of)
      (c)->sum, (c)->last, (c)->weight_sum, (c)->dist, (c)->ga,              \
      (c)->gb, (c)->gb_scaled, (c)->p, (c)->pair, (c)->pair_ga,              \
      (c)->pair_gb, (c)->pair_e, (c)->matrix, (c)->x, (c)->y, (c)->order,    \
-     (c)->set, (c)->trial, (c)->ia, (c)->ib, (c)->image_distance}
+     (c)->set, (c)->trial, (c)->dist_image, (c)->sa, (c)->sb, (c)->sb_scaled,                \
+     (c)->pair_sa, (c)->pair_sb, (c)->ia, (c)->ib, (c)->image_distance}
 
 void phks__verifier_free(phks__verifier *c)
 {
@@ -724,7 +795,7 @@ void phks__verifier_free(phks__verifier *c)
 static bool allocate(phks__verifier *c, size_t nb)
 {
     size_t na = c->na, L = c->length;
-    size_t most = na * (nb < CANDIDATES ? nb : CANDIDATES) + 1;
+    size_t most = 2 * na * (nb < CANDIDATES ? nb : CANDIDATES) + 1;
     c->va = phks__malloc_array(na, L * sizeof *c->va);
     c->vb = phks__malloc_array(nb, L * sizeof *c->vb);
     c->wa = phks__malloc_array(na, L * sizeof *c->wa);
@@ -750,6 +821,12 @@ static bool allocate(phks__verifier *c, size_t nb)
     c->order = phks__malloc_array(most, sizeof *c->order);
     c->set = phks__malloc_array(most, sizeof *c->set);
     c->trial = phks__malloc_array(na + 1, sizeof *c->trial);
+    c->sa = phks__malloc_array(na, na * sizeof *c->sa);
+    c->dist_image = phks__malloc_array(na, nb * sizeof *c->dist_image);
+    c->sb = phks__malloc_array(nb, nb * sizeof *c->sb);
+    c->sb_scaled = phks__malloc_array(nb, nb * sizeof *c->sb_scaled);
+    c->pair_sa = phks__malloc_array(most, most / 2 * sizeof *c->pair_sa);
+    c->pair_sb = phks__malloc_array(most, most / 2 * sizeof *c->pair_sb);
     if (c->a->spin) {
         size_t R = PHKS__SPIN_RADII;
         c->ia = phks__malloc_array(na + 1, PHKS__SPIN_BYTES * sizeof *c->ia);
@@ -785,6 +862,8 @@ phks_status phks__verifier_new(const phks_signature *a, size_t points,
     compared_vectors(a, c->na, c->va);
     boundary_weights(a, c->na, c->wa);
     square_distances(a, c->na, c->ga);
+    if (a->unit_scale > 0)
+        straight_distances(a, c->na, c->sa);
     if (a->spin)
         unit_images(a, c->na, c->ia);
     *out = c;
@@ -808,6 +887,10 @@ void phks__verifier_run(phks__verifier *c, const phks_signature *b,
     step_weights(c);
     square_distances(b, c->nb, c->gb);
     c->spin = c->a->spin && b->spin;
+    c->both = c->spin && getenv("PHKS_BOTH");
+    c->straight = c->spin && c->a->unit_scale > 0 && b->unit_scale > 0 && !getenv("PHKS_NO_STRAIGHT");
+    if (c->straight)
+        straight_distances(b, c->nb, c->sb);
     if (c->spin) {
         unit_images(b, c->nb, c->ib);
         image_distances(c);
