@@ -814,7 +814,9 @@ PHKS_API const double *phks_signature_feature_vector(
 /* Copies into *options the options the signature was made with, as
  * resolved (progress and progress_user NULL), so that a new signature can
  * be made comparable with it, or with a database that holds it: a blob
- * decoded from an older version gives the options that version used.
+ * decoded from an older version gives the options that version used. A
+ * NEAREST signature's blob leaves out local_descriptor, which NEAREST
+ * ignores: decoded, it reads PHKS_LOCAL_DESCRIPTOR_HEAT.
  * Errors: PHKS_ERROR_INVALID_ARGUMENT (NULL). Thread-safe. */
 PHKS_API phks_status phks_signature_options(const phks_signature *signature,
                                             phks_options *options);
