@@ -4,9 +4,12 @@
  * fields get past the checksum and reach the checks behind it.
  *
  * For every blob accepted: the signature is sane; encoding it gives back
- * the blob itself (in the current format) or a longer one (an older format
- * gains the newer fields); and decode(encode(decode(x))) is decode(x),
- * field by field and bit for bit, and scores 0 against it.
+ * the blob itself (in the format the encoder picks for its options), a
+ * longer one (an older format gains the newer fields) or a shorter one (a
+ * newer format holding only older options, or a local descriptor that
+ * NEAREST ignores, loses them); and decode(encode(decode(x))) is
+ * decode(x), field by field and bit for bit (the local descriptor where
+ * it counts: with VERIFIED), and scores 0 against it.
  */
 #include "fuzz_common.h"
 
@@ -26,6 +29,10 @@ static void check_sane(const phks_signature *sig)
     size_t points = count + phks_signature_sample_count(sig);
     FUZZ_CHECK(points == count ||
                sig->options.matching == PHKS_MATCHING_VERIFIED);
+    /* Spin images exactly with VERIFIED and SPIN. */
+    FUZZ_CHECK((sig->spin != NULL) ==
+               (sig->options.matching == PHKS_MATCHING_VERIFIED &&
+                sig->options.local_descriptor == PHKS_LOCAL_DESCRIPTOR_SPIN));
     for (size_t i = 0; i < points; i++) {
         if (sig->boundary)
             FUZZ_CHECK(sig->boundary[i] >= 0);
@@ -79,6 +86,11 @@ static void check_same(const phks_signature *a, const phks_signature *b)
         FUZZ_CHECK(same_bits(a->boundary, b->boundary,
                              points * sizeof *a->boundary));
     }
+    FUZZ_CHECK((a->spin == NULL) == (b->spin == NULL));
+    if (a->spin) {
+        FUZZ_CHECK(x->local_descriptor == y->local_descriptor);
+        FUZZ_CHECK(same_bits(a->spin, b->spin, points * PHKS__SPIN_BYTES));
+    }
     double score = -1;
     FUZZ_CHECK(phks_score(a, b, &score) == PHKS_OK && score == 0);
 }
@@ -124,11 +136,13 @@ static void decode_and_round_trip(const uint8_t *data, size_t size)
     unsigned current = (unsigned)blob1[4] | (unsigned)blob1[5] << 8;
     /* A newer format holding only older options is read, and written
      * back in the oldest format that holds them. */
-    FUZZ_CHECK(format >= 1 && format <= 4 && current <= 4);
+    FUZZ_CHECK(format >= 1 && format <= 5 && current <= 5);
     if (format == current)
         FUZZ_CHECK(n1 == size && memcmp(blob1, data, size) == 0);
-    else /* an older blob gains the newer fields */
+    else if (format < current) /* an older blob gains the newer fields */
         FUZZ_CHECK(n1 > size);
+    else /* a newer one holding only older options loses them */
+        FUZZ_CHECK(n1 < size);
 
     phks_signature *again = NULL;
     FUZZ_CHECK(phks_signature_decode(blob1, n1, &again) == PHKS_OK);

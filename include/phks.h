@@ -390,9 +390,10 @@ PHKS_API phks_status phks_options_init(phks_options *options);
  * that shape a signature's numbers first (tau, cutoff, eigen_count,
  * operator_kind, box, quadrature, feature_count, scale_count,
  * feature_scale, boundary_margin, hks_scaling, matching, scales), then
- * solver, threads, tolerance, simplify_above, simplify_target. Every
- * function here is thread-safe and allocates nothing; returned strings are
- * static. */
+ * solver, threads, tolerance, simplify_above, simplify_target, then
+ * local_descriptor (since 0.3.0; it shapes VERIFIED signatures only).
+ * Every function here is thread-safe and allocates nothing; returned
+ * strings are static. */
 typedef enum phks_spelling {
     /* The field's name and the enumerator's suffix in lower case:
      * "operator_kind", "random_walk". The library's own messages, the
@@ -430,7 +431,8 @@ PHKS_API phks_status phks_option_find(const char *name, phks_spelling spelling,
                                       uint32_t *index);
 
 /* Name of `value` of option `index` in spelling when the option is an enum
- * (operator_kind, box, solver, hks_scaling, quadrature, matching): for
+ * (operator_kind, box, solver, hks_scaling, quadrature, matching,
+ * local_descriptor): for
  * example "local-area" for hks_scaling 2 in PHKS_SPELLING_CLI. NULL when
  * the option is not an enum, the value has no name or the spelling is
  * unknown. An enum's values are 0, 1, ... up to the first NULL. */
@@ -461,7 +463,8 @@ PHKS_API phks_status phks_option_format(const phks_options *options,
 /* Whether signatures made with options a and b are comparable: every option
  * that shapes a signature's numbers equal (not solver, threads, tolerance,
  * callbacks nor the HKS-simp switch, which change how the numbers are
- * computed, not what they mean). Returns PHKS_OK when they are, and
+ * computed, not what they mean; local_descriptor only when both match
+ * VERIFIED, since NEAREST ignores it). Returns PHKS_OK when they are, and
  * PHKS_ERROR_INCOMPATIBLE when not, with the first option that differs and
  * both values in spelling, "hks-scaling local-area against none", in
  * detail (size bytes; cut to fit; may be NULL when size is 0) and in
@@ -811,7 +814,9 @@ PHKS_API const double *phks_signature_feature_vector(
 /* Copies into *options the options the signature was made with, as
  * resolved (progress and progress_user NULL), so that a new signature can
  * be made comparable with it, or with a database that holds it: a blob
- * decoded from an older version gives the options that version used.
+ * decoded from an older version gives the options that version used. A
+ * NEAREST signature's blob leaves out local_descriptor, which NEAREST
+ * ignores: decoded, it reads PHKS_LOCAL_DESCRIPTOR_HEAT.
  * Errors: PHKS_ERROR_INVALID_ARGUMENT (NULL). Thread-safe. */
 PHKS_API phks_status phks_signature_options(const phks_signature *signature,
                                             phks_options *options);

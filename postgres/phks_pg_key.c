@@ -14,6 +14,13 @@
  * text or binary; its bytes are the server's own (native byte order),
  * like a float8's in a page. Keys and queries made with different options
  * refuse to be compared, naming the option.
+ *
+ * The local descriptor (0.3.0) sits in what was the header's padding
+ * before the options, which 0.2.0's keys hold as zero (palloc0): HEAT,
+ * what their signatures were made with, so that their bytes, size and
+ * version stay valid keys and compare as they did. A key records it only
+ * for VERIFIED signatures (0 with NEAREST, which ignores it), as
+ * phks_options_compare compares it only there.
  */
 #include "phks_pg.h"
 
@@ -40,9 +47,16 @@ struct phks_pg_key {
     uint32 magic;
     uint32 version;
     uint32 count, length; /* count vectors of length doubles */
+    int32 local_descriptor; /* VERIFIED: phks_local_descriptor; else 0 */
     key_options options;
     double vectors[FLEXIBLE_ARRAY_MEMBER];
 };
+
+/* The local descriptor took the padding before the options: the layout
+ * of 0.2.0's keys, which stored tables hold, is unchanged. */
+StaticAssertDecl(offsetof(phks_pg_key, local_descriptor) == 20 &&
+                     offsetof(phks_pg_key, options) == 24,
+                 "phks_key's layout moved");
 
 #define FIELD(name, member) \
     {name, offsetof(key_options, member), sizeof(((key_options *)0)->member)}
@@ -118,6 +132,9 @@ static phks_status key_of(const phks_signature *sig, phks_pg_key **out)
     key->count = (uint32)count;
     key->length = (uint32)length;
     key->options = options_of(&o);
+    key->local_descriptor = o.matching == PHKS_MATCHING_VERIFIED
+                                ? (int32)o.local_descriptor
+                                : PHKS_LOCAL_DESCRIPTOR_HEAT;
     for (size_t i = 0; i < count; i++)
         memcpy(key->vectors + i * length, phks_signature_feature_vector(sig, i),
                length * sizeof(double));
@@ -142,6 +159,10 @@ static const char *key_header_problem(const phks_pg_key *key, size_t size)
         key->count > (MaxAllocSize - fixed) / (key->length * sizeof(double)) ||
         key_size(key->count, key->length) != size)
         return "its size does not match its vectors and options";
+    if (key->local_descriptor != PHKS_LOCAL_DESCRIPTOR_HEAT &&
+        (key->local_descriptor != PHKS_LOCAL_DESCRIPTOR_SPIN ||
+         key->options.matching != PHKS_MATCHING_VERIFIED))
+        return "an unknown local descriptor";
     return NULL;
 }
 
@@ -237,12 +258,15 @@ Datum phks_pg_key_of(PG_FUNCTION_ARGS)
     PG_RETURN_POINTER(key_or_error(sig, true, "phks_key"));
 }
 
-/* Raises an error naming the first option in which a and b differ. */
-static void check_options(const key_options *a, const key_options *b)
+/* Raises an error naming the first option in which keys a and b differ. */
+static void check_options(const phks_pg_key *ka, const phks_pg_key *kb)
 {
-    if (memcmp(a, b, sizeof *a) == 0)
+    const key_options *a = &ka->options, *b = &kb->options;
+    bool same = memcmp(a, b, sizeof *a) == 0;
+    if (same && ka->local_descriptor == kb->local_descriptor)
         return;
-    const char *name = "options";
+    /* After the options: a different matching is named first. */
+    const char *name = same ? "local_descriptor" : "options";
     for (size_t i = 0; i < lengthof(key_fields); i++) {
         const char *pa = (const char *)a + key_fields[i].offset;
         const char *pb = (const char *)b + key_fields[i].offset;
@@ -284,7 +308,7 @@ Datum phks_pg_key_distance(PG_FUNCTION_ARGS)
             VARDATA_ANY(blob), VARSIZE_ANY_EXHDR(blob), "phks_score_nearest");
         qkey = key_or_error(own, true, "phks_score_nearest");
     }
-    check_options(&qkey->options, &key->options);
+    check_options(qkey, key);
     double score;
     phks_status st = phks_score_nearest_vectors(
         qkey->vectors, qkey->count, key->vectors, key->count, key->length,

@@ -75,6 +75,8 @@ START_TEST(options_defaults_are_the_papers)
     ck_assert_int_eq(o.operator_kind, PHKS_OPERATOR_RANDOM_WALK);
     ck_assert_double_eq(o.boundary_margin, 2);
     ck_assert_int_eq(o.hks_scaling, PHKS_HKS_SCALING_LOCAL_AREA);
+    ck_assert_int_eq(o.matching, PHKS_MATCHING_VERIFIED);
+    ck_assert_int_eq(o.local_descriptor, PHKS_LOCAL_DESCRIPTOR_SPIN);
     ck_assert_int_eq(phks_options_init(NULL), PHKS_ERROR_INVALID_ARGUMENT);
 }
 END_TEST
@@ -113,8 +115,27 @@ START_TEST(bad_options_are_refused)
     REFUSED(o.tolerance = 0, "tolerance");
     REFUSED(o.hks_scaling = 3, "hks_scaling");
     REFUSED(o.boundary_margin = -1, "boundary_margin");
+    REFUSED(o.local_descriptor = 7, "unknown local_descriptor 7");
+    /* Checked with NEAREST too, which ignores a valid one. */
+    REFUSED((o.matching = PHKS_MATCHING_NEAREST, o.local_descriptor = -1),
+            "local_descriptor");
 #undef REFUSED
     phks_mesh_free(m);
+}
+END_TEST
+
+/* A caller built against 0.2.0's header left local_descriptor (its
+ * reserved_pad) zero: HEAT, a valid value, so its options still pass. */
+START_TEST(old_callers_zero_pad_is_heat)
+{
+    phks_options o, resolved;
+    phks_options_init(&o);
+    o.local_descriptor = 0;
+    ck_assert_int_eq(phks_option_set(&o, 0, "0.0002", PHKS_SPELLING_C),
+                     PHKS_OK);
+    ck_assert_int_eq(o.local_descriptor, PHKS_LOCAL_DESCRIPTOR_HEAT);
+    ck_assert_int_eq(phks__options_resolve(&o, &resolved), PHKS_OK);
+    ck_assert_int_eq(resolved.local_descriptor, PHKS_LOCAL_DESCRIPTOR_HEAT);
 }
 END_TEST
 
@@ -182,6 +203,7 @@ int main(void)
     tcase_add_test(c, error_messages_are_per_thread);
     tcase_add_test(c, options_defaults_are_the_papers);
     tcase_add_test(c, bad_options_are_refused);
+    tcase_add_test(c, old_callers_zero_pad_is_heat);
     tcase_add_test(c, allocator_hook_sees_every_allocation);
     tcase_add_test(c, null_handles_are_harmless);
     suite_add_tcase(s, c);

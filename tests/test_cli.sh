@@ -565,6 +565,24 @@ expect_err "^phks: t.db: the options given are not the database's: --quadrature 
 run "$phks" --quadrature triangles signature box.off -o q.sig; expect_rc 0
 run "$phks" match q.sig box.off; expect_rc 1 "match of blobs made with other quadratures"
 expect_err "^phks: q.sig and box.off: made with different options: --quadrature triangles against vertices$"
+# --local-descriptor: recorded, refused against a database or a blob of
+# the other one (both verified); ignored with --matching nearest.
+run "$phks" --local-descriptor heat signature box.off --json; expect_rc 0 \
+    "signature --local-descriptor heat"
+expect_out '"local_descriptor": "heat"'
+run "$phks" --local-descriptor hks signature box.off; expect_rc 2 \
+    "--local-descriptor hks"
+expect_err "^phks: --local-descriptor: 'hks' is not one of heat, spin$"
+run "$phks" --local-descriptor heat db query t.db box.off; expect_rc 1 \
+    "db query --local-descriptor heat against a database of spin images"
+expect_err "^phks: t.db: the options given are not the database's: --local-descriptor heat against spin "
+run "$phks" --local-descriptor heat signature box.off -o h.sig; expect_rc 0
+run "$phks" match h.sig box.off; expect_rc 1 "match of blobs made with other local descriptors"
+expect_err "^phks: h.sig and box.off: made with different options: --local-descriptor heat against spin$"
+run "$phks" --matching nearest --local-descriptor heat signature box.off \
+    -o hn.sig; expect_rc 0
+run "$phks" --matching nearest match hn.sig box.off; expect_rc 0 \
+    "nearest matching ignores the local descriptor"
 # Blobs, directories, duplicates.
 mkdir -p tree/sub tree/sub/deeper
 cp a.off tree/sub/z.off; cp a.sig tree/a.sig; cp b.off tree/sub/deeper/b.off

@@ -25,6 +25,50 @@ static phks_signature *make(size_t count, uint64_t seed)
     return sig;
 }
 
+/* A VERIFIED signature with its layout, the local descriptor given, and
+ * numbers a blob keeps exactly (the samples' and the layout's are f32);
+ * spin images (with SPIN) of bytes that differ from point to point. */
+static phks_signature *make_verified(size_t count, size_t samples,
+                                     int32_t descriptor, uint64_t seed)
+{
+    phks_signature *sig;
+    ck_assert_int_eq(phks__signature_alloc(count, samples, 15, &sig), PHKS_OK);
+    phks_options_init(&sig->options);
+    sig->options.matching = PHKS_MATCHING_VERIFIED;
+    sig->options.local_descriptor = descriptor;
+    ck_assert_int_eq(phks__signature_alloc_layout(sig), PHKS_OK);
+    size_t points = count + samples;
+    for (size_t i = 0; i < points; i++) {
+        sig->vertex[i] = (uint32_t)(i * 7);
+        for (int d = 0; d < 3; d++)
+            sig->position[3 * i + d] = (float)(test_random(&seed) - 0.5);
+        sig->persistence[i] = i >= count ? 0
+                              : i == 0   ? INFINITY
+                                         : test_random(&seed);
+        for (size_t s = 0; s < 15; s++)
+            sig->vectors[i * 15 + s] = (float)(100 * test_random(&seed) - 50);
+        sig->boundary[i] = (float)test_random(&seed);
+    }
+    for (size_t k = 0; k < phks__pair_count(points); k++)
+        sig->geodesic[k] = (float)test_random(&seed);
+    if (descriptor == PHKS_LOCAL_DESCRIPTOR_SPIN) {
+        ck_assert_ptr_nonnull(sig->spin);
+        for (size_t b = 0; b < points * PHKS__SPIN_BYTES; b++)
+            sig->spin[b] = (uint8_t)(1 + (b * 37 + b / PHKS__SPIN_BYTES) % 255);
+    } else {
+        ck_assert_ptr_null(sig->spin);
+    }
+    return sig;
+}
+
+/* Rewrites the CRC-32 at the end of a hand-edited blob. */
+static void fix_crc(unsigned char *blob, size_t size)
+{
+    uint32_t crc = phks__crc32(blob, size - 4);
+    for (int i = 0; i < 4; i++)
+        blob[size - 4 + i] = (unsigned char)(crc >> (8 * i));
+}
+
 static unsigned char *encode(const phks_signature *sig, size_t *size)
 {
     size_t need = phks_signature_encoded_size(sig);
@@ -204,7 +248,7 @@ START_TEST(every_damage_is_refused)
         ck_assert(st == PHKS_ERROR_TRUNCATED || st == PHKS_ERROR_CORRUPT);
     }
     memcpy(copy, blob, size);
-    copy[4] = 5; /* a newer format */
+    copy[4] = 6; /* a newer format */
     ck_assert_int_eq(phks_signature_decode(copy, size, &out),
                      PHKS_ERROR_UNSUPPORTED_VERSION);
     ck_assert_int_eq(phks_signature_decode(NULL, size, &out),
@@ -300,6 +344,209 @@ START_TEST(incompatible_options_refuse_to_score)
 }
 END_TEST
 
+/* Format 5: a VERIFIED signature with spin images keeps them, byte for
+ * byte, after its layout; its local descriptor sits at offset 72. */
+START_TEST(format_5_round_trip_keeps_the_spin_images)
+{
+    const size_t count = 4, samples = 3, points = count + samples;
+    phks_signature *sig =
+        make_verified(count, samples, PHKS_LOCAL_DESCRIPTOR_SPIN, 11);
+    size_t size;
+    unsigned char *blob = encode(sig, &size);
+    const unsigned char head[8] = {'P', 'H', 'K', 'S', 5, 0, 0, 0};
+    ck_assert_mem_eq(blob, head, 8);
+    const unsigned char descriptor[4] = {1, 0, 0, 0};
+    ck_assert_mem_eq(blob + 72, descriptor, 4);
+    /* header 76, scales, features, samples, boundary, geodesic, images */
+    size_t layout = 4 + samples * (4 + 12 + 4 * 15) + 4 * points +
+                    4 * phks__pair_count(points);
+    ck_assert_uint_eq(size, 76 + 15 * 8 + 4 + count * (4 + 32 + 15 * 8) +
+                                layout + points * PHKS__SPIN_BYTES + 4);
+    ck_assert_mem_eq(blob + size - 4 - points * PHKS__SPIN_BYTES, sig->spin,
+                     points * PHKS__SPIN_BYTES);
+    phks_signature *back;
+    ck_assert_int_eq(phks_signature_decode(blob, size, &back), PHKS_OK);
+    ck_assert_int_eq(back->options.local_descriptor,
+                     PHKS_LOCAL_DESCRIPTOR_SPIN);
+    ck_assert_uint_eq(back->samples, samples);
+    ck_assert_ptr_nonnull(back->spin);
+    ck_assert_mem_eq(back->spin, sig->spin, points * PHKS__SPIN_BYTES);
+    ck_assert_mem_eq(back->vectors, sig->vectors,
+                     points * 15 * sizeof(double));
+    ck_assert_mem_eq(back->geodesic, sig->geodesic,
+                     phks__pair_count(points) * sizeof(float));
+    size_t again;
+    unsigned char *twice = encode(back, &again);
+    ck_assert_uint_eq(again, size);
+    ck_assert_mem_eq(twice, blob, size);
+    phks_signature_free(back);
+    phks_signature_free(sig);
+    free(blob);
+    free(twice);
+}
+END_TEST
+
+/* HEAT keeps format 4's bytes: the format-5 blob of the same signature
+ * less the local descriptor's field and the images, its checksum made
+ * again. It decodes with HEAT, as does every older blob. */
+START_TEST(heat_keeps_format_4_bytes)
+{
+    const size_t count = 3, samples = 2, points = count + samples;
+    phks_signature *spin =
+        make_verified(count, samples, PHKS_LOCAL_DESCRIPTOR_SPIN, 12);
+    phks_signature *heat =
+        make_verified(count, samples, PHKS_LOCAL_DESCRIPTOR_HEAT, 12);
+    size_t size5, size4;
+    unsigned char *five = encode(spin, &size5);
+    unsigned char *four = encode(heat, &size4);
+    ck_assert_uint_eq(four[4], 4);
+    ck_assert_uint_eq(size5, size4 + 4 + points * PHKS__SPIN_BYTES);
+    unsigned char *cut = malloc(size4);
+    memcpy(cut, five, 72);
+    memcpy(cut + 72, five + 76, size4 - 72 - 4);
+    cut[4] = 4;
+    fix_crc(cut, size4);
+    ck_assert_mem_eq(cut, four, size4);
+    phks_signature *back;
+    ck_assert_int_eq(phks_signature_decode(four, size4, &back), PHKS_OK);
+    ck_assert_int_eq(back->options.local_descriptor,
+                     PHKS_LOCAL_DESCRIPTOR_HEAT);
+    ck_assert_ptr_null(back->spin);
+    phks_signature_free(back);
+    /* Format 2 (NEAREST) blobs decode with HEAT too. */
+    phks_signature *near = make(2, 3);
+    size_t size2;
+    unsigned char *two = encode(near, &size2);
+    ck_assert_int_eq(phks_signature_decode(two, size2, &back), PHKS_OK);
+    ck_assert_int_eq(back->options.local_descriptor,
+                     PHKS_LOCAL_DESCRIPTOR_HEAT);
+    phks_signature_free(back);
+    free(two);
+    phks_signature_free(near);
+    phks_signature_free(spin);
+    phks_signature_free(heat);
+    free(five);
+    free(four);
+    free(cut);
+}
+END_TEST
+
+/* NEAREST ignores the local descriptor: its blob leaves it out, so either
+ * value gives the same format-2 bytes. */
+START_TEST(nearest_blobs_leave_the_descriptor_out)
+{
+    phks_signature *sig = make(3, 13);
+    sig->options.local_descriptor = PHKS_LOCAL_DESCRIPTOR_SPIN;
+    size_t size_spin, size_heat;
+    unsigned char *with_spin = encode(sig, &size_spin);
+    sig->options.local_descriptor = PHKS_LOCAL_DESCRIPTOR_HEAT;
+    unsigned char *with_heat = encode(sig, &size_heat);
+    ck_assert_uint_eq(with_spin[4], 2);
+    ck_assert_uint_eq(size_spin, size_heat);
+    ck_assert_mem_eq(with_spin, with_heat, size_spin);
+    phks_signature_free(sig);
+    free(with_spin);
+    free(with_heat);
+}
+END_TEST
+
+/* A format-5 blob cut anywhere, or with its images' last byte cut and
+ * the checksum made again, or with any bit flipped, is refused, its
+ * output NULL; an unknown local descriptor is an impossible option. */
+START_TEST(format_5_damage_is_refused)
+{
+    phks_signature *sig = make_verified(2, 1, PHKS_LOCAL_DESCRIPTOR_SPIN, 14);
+    size_t size;
+    unsigned char *blob = encode(sig, &size);
+    phks_signature *out;
+    for (size_t len = 0; len < size; len++) {
+        out = (phks_signature *)1;
+        phks_status st = phks_signature_decode(blob, len, &out);
+        ck_assert_msg(st == PHKS_ERROR_TRUNCATED || st == PHKS_ERROR_CORRUPT,
+                      "%zu bytes: %d", len, (int)st);
+        ck_assert_ptr_null(out);
+    }
+    unsigned char *copy = malloc(size);
+    memcpy(copy, blob, size);
+    /* One byte fewer of images, a valid checksum over what is left. */
+    memmove(copy + size - 5, copy + size - 4, 4);
+    fix_crc(copy, size - 1);
+    ck_assert_int_eq(phks_signature_decode(copy, size - 1, &out),
+                     PHKS_ERROR_TRUNCATED);
+    ck_assert_ptr_null(out);
+    for (size_t byte = 0; byte < size; byte += 3) {
+        memcpy(copy, blob, size);
+        copy[byte] ^= (unsigned char)(1u << (byte % 8));
+        out = (phks_signature *)1;
+        ck_assert_int_ne(phks_signature_decode(copy, size, &out), PHKS_OK);
+        ck_assert_ptr_null(out);
+    }
+    /* Local descriptor 7, checksum fixed: no images expected, and refused
+     * as a bad option (the bytes are those of a HEAT blob's size). */
+    phks_signature *heat =
+        make_verified(2, 1, PHKS_LOCAL_DESCRIPTOR_HEAT, 14);
+    heat->options.local_descriptor = 7;
+    size_t size7;
+    unsigned char *seven = encode(heat, &size7);
+    ck_assert_uint_eq(seven[4], 5);
+    ck_assert_int_eq(phks_signature_decode(seven, size7, &out),
+                     PHKS_ERROR_CORRUPT);
+    ck_assert_ptr_nonnull(strstr(phks_last_error_message(),
+                                 "unknown local_descriptor 7"));
+    ck_assert_ptr_null(out);
+    phks_signature_free(heat);
+    free(seven);
+    /* A spin signature that lost its images cannot be encoded. */
+    free(sig->spin);
+    sig->spin = NULL;
+    ck_assert_int_eq(phks_signature_encode(sig, copy, size, &size),
+                     PHKS_ERROR_INVALID_ARGUMENT);
+    phks_signature_free(sig);
+    free(blob);
+    free(copy);
+}
+END_TEST
+
+/* Two VERIFIED signatures of other local descriptors do not score, and
+ * the message names the option and both values; two NEAREST ones do,
+ * whatever their local descriptors. */
+START_TEST(local_descriptors_compare_only_when_verified)
+{
+    phks_signature *heat = make_verified(3, 2, PHKS_LOCAL_DESCRIPTOR_HEAT, 15);
+    phks_signature *spin = make_verified(3, 2, PHKS_LOCAL_DESCRIPTOR_SPIN, 16);
+    double score;
+    ck_assert_int_eq(phks_score(heat, spin, &score), PHKS_ERROR_INCOMPATIBLE);
+    ck_assert_ptr_nonnull(strstr(phks_last_error_message(),
+                                 "local_descriptor heat against spin"));
+    ck_assert_int_eq(phks_score_nearest(spin, heat, &score),
+                     PHKS_ERROR_INCOMPATIBLE);
+    ck_assert_ptr_nonnull(strstr(phks_last_error_message(),
+                                 "local_descriptor spin against heat"));
+    char detail[64];
+    ck_assert_int_eq(phks_options_compare(&heat->options, &spin->options,
+                                          PHKS_SPELLING_CLI, detail,
+                                          sizeof detail),
+                     PHKS_ERROR_INCOMPATIBLE);
+    ck_assert_str_eq(detail, "local-descriptor heat against spin");
+    phks_signature *a = make(3, 17), *b = make(3, 18);
+    a->options.local_descriptor = PHKS_LOCAL_DESCRIPTOR_HEAT;
+    b->options.local_descriptor = PHKS_LOCAL_DESCRIPTOR_SPIN;
+    ck_assert_int_eq(phks_score(a, b, &score), PHKS_OK);
+    ck_assert_int_eq(phks_options_compare(&a->options, &b->options,
+                                          PHKS_SPELLING_C, NULL, 0),
+                     PHKS_OK);
+    /* NEAREST against VERIFIED: matching tells them apart, whatever the
+     * descriptors. */
+    ck_assert_int_eq(phks_score(a, heat, &score), PHKS_ERROR_INCOMPATIBLE);
+    ck_assert_ptr_nonnull(strstr(phks_last_error_message(),
+                                 "matching nearest against verified"));
+    phks_signature_free(a);
+    phks_signature_free(b);
+    phks_signature_free(heat);
+    phks_signature_free(spin);
+}
+END_TEST
+
 /* Score and match against a brute-force evaluation of docs/method.md
  * section 10. */
 START_TEST(score_is_the_symmetric_nearest_sum)
@@ -364,6 +611,11 @@ int main(void)
     tcase_add_test(c, valid_checksum_impossible_numbers);
     tcase_add_test(c, incompatible_options_refuse_to_score);
     tcase_add_test(c, score_is_the_symmetric_nearest_sum);
+    tcase_add_test(c, format_5_round_trip_keeps_the_spin_images);
+    tcase_add_test(c, heat_keeps_format_4_bytes);
+    tcase_add_test(c, nearest_blobs_leave_the_descriptor_out);
+    tcase_add_test(c, format_5_damage_is_refused);
+    tcase_add_test(c, local_descriptors_compare_only_when_verified);
     suite_add_tcase(s, c);
     return run_suite(s);
 }

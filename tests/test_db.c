@@ -496,6 +496,78 @@ START_TEST(other_options_are_refused)
 }
 END_TEST
 
+/* A VERIFIED synthetic signature with its layout (no samples: the
+ * features are the points), of the local descriptor given; spin images
+ * of bytes that differ from point to point. */
+static phks_signature *verified_synthetic(size_t count, uint64_t *seed,
+                                          int32_t descriptor)
+{
+    phks_signature *sig = synthetic(count, seed, false);
+    sig->options.matching = PHKS_MATCHING_VERIFIED;
+    sig->options.local_descriptor = descriptor;
+    ck_assert_int_eq(phks__signature_alloc_layout(sig), PHKS_OK);
+    for (size_t i = 0; i < count; i++)
+        sig->boundary[i] = INFINITY;
+    for (size_t k = 0; k < phks__pair_count(count); k++)
+        sig->geodesic[k] = (float)(0.1 + test_random(seed));
+    for (size_t b = 0; sig->spin && b < count * PHKS__SPIN_BYTES; b++)
+        sig->spin[b] = (uint8_t)(b * 13 + 1);
+    return sig;
+}
+
+/* The local descriptor is one of a database's options, between VERIFIED
+ * signatures: a file of HEAT signatures (0.2.0's: format-4 blobs, the
+ * bytes test_codec.c pins) opens, answers HEAT queries and refuses SPIN
+ * ones, naming the option; a file of SPIN signatures keeps their images
+ * and answers SPIN queries. */
+START_TEST(local_descriptor_is_the_databases)
+{
+    uint64_t seed = 21;
+    char *dir = temp_dir();
+    const int32_t descriptors[2] = {PHKS_LOCAL_DESCRIPTOR_HEAT,
+                                    PHKS_LOCAL_DESCRIPTOR_SPIN};
+    for (int d = 0; d < 2; d++) {
+        char path[256];
+        snprintf(path, sizeof path, "%s/%d.db", dir, d);
+        phks_signature *mine = verified_synthetic(6, &seed, descriptors[d]);
+        phks_signature *other =
+            verified_synthetic(6, &seed, descriptors[1 - d]);
+        phks_db *db;
+        ck_assert_int_eq(phks_db_open(path, PHKS_DB_CREATE, &db), PHKS_OK);
+        ck_assert_int_eq(phks_db_add(db, "mine", NULL, mine, NULL), PHKS_OK);
+        ck_assert_int_eq(phks_db_add(db, "other", NULL, other, NULL),
+                         PHKS_ERROR_INCOMPATIBLE);
+        phks_db_close(db);
+        /* A fresh handle reads the options back from the file. */
+        ck_assert_int_eq(phks_db_open(path, PHKS_DB_READONLY, &db), PHKS_OK);
+        phks_hit hits[2];
+        size_t count = 0;
+        ck_assert_int_eq(phks_db_query(db, mine, 2, hits, &count), PHKS_OK);
+        ck_assert_uint_eq(count, 1);
+        ck_assert_str_eq(hits[0].name, "mine");
+        ck_assert_int_eq(phks_db_query(db, other, 2, hits, &count),
+                         PHKS_ERROR_INCOMPATIBLE);
+        char says[64];
+        snprintf(says, sizeof says, "local_descriptor %s against %s",
+                 d ? "heat" : "spin", d ? "spin" : "heat");
+        ck_assert_msg(strstr(phks_last_error_message(), says), "%s",
+                      phks_last_error_message());
+        phks_signature *back;
+        ck_assert_int_eq(phks_db_get(db, hits[0].id, &back, NULL, 0, NULL, 0),
+                         PHKS_OK);
+        ck_assert_int_eq(back->options.local_descriptor, descriptors[d]);
+        ck_assert_int_eq(back->spin != NULL, d == 1);
+        if (back->spin)
+            ck_assert_mem_eq(back->spin, mine->spin, 6 * PHKS__SPIN_BYTES);
+        phks_signature_free(back);
+        phks_db_close(db);
+        phks_signature_free(mine);
+        phks_signature_free(other);
+    }
+    remove_dir(dir);
+}
+END_TEST
+
 /* Two handles on one new file: the second learns the options the first
  * committed, inside its own write transaction. */
 START_TEST(options_set_by_another_handle_are_refused)
@@ -1614,6 +1686,7 @@ int main(void)
     tcase_set_timeout(c, 120);
     tcase_add_loop_test(c, round_trip, 0, 2);
     tcase_add_test(c, file_layout_is_as_documented);
+    tcase_add_test(c, local_descriptor_is_the_databases);
     tcase_add_test(c, query_equals_brute_force);
     tcase_add_test(c, parallel_scan_equals_brute_force);
     tcase_add_test(c, creatures_end_to_end);

@@ -44,6 +44,10 @@ START_TEST(tool_words_set_the_fields_the_manual_says)
     ck_assert_int_eq(o.quadrature, PHKS_QUADRATURE_TRIANGLES);
     set(&o, "matching", "nearest", cli);
     ck_assert_int_eq(o.matching, PHKS_MATCHING_NEAREST);
+    set(&o, "local-descriptor", "heat", cli);
+    ck_assert_int_eq(o.local_descriptor, PHKS_LOCAL_DESCRIPTOR_HEAT);
+    set(&o, "local-descriptor", "spin", cli);
+    ck_assert_int_eq(o.local_descriptor, PHKS_LOCAL_DESCRIPTOR_SPIN);
     set(&o, "box", "axis-aligned", cli);
     ck_assert_int_eq(o.box, PHKS_BOX_AXIS_ALIGNED);
     set(&o, "solver", "arpack", cli);
@@ -76,6 +80,10 @@ START_TEST(python_words_are_the_fields_names)
     /* An enum also by its number, as Python's keywords take it. */
     set(&o, "matching", "0", c);
     ck_assert_int_eq(o.matching, PHKS_MATCHING_NEAREST);
+    set(&o, "local_descriptor", "heat", c);
+    ck_assert_int_eq(o.local_descriptor, PHKS_LOCAL_DESCRIPTOR_HEAT);
+    set(&o, "local_descriptor", "1", c);
+    ck_assert_int_eq(o.local_descriptor, PHKS_LOCAL_DESCRIPTOR_SPIN);
     /* The other binding's words are not these. */
     uint32_t i;
     ck_assert_int_eq(phks_option_find("hks-scaling", c, &i),
@@ -98,6 +106,7 @@ START_TEST(every_option_reads_back_what_it_writes)
     changed.hks_scaling = PHKS_HKS_SCALING_MEAN;
     changed.scale_count = 2;
     changed.threads = 7;
+    changed.local_descriptor = PHKS_LOCAL_DESCRIPTOR_HEAT;
     const phks_options *sources[2] = {NULL, &changed};
     phks_options defaults;
     phks_options_init(&defaults);
@@ -105,9 +114,9 @@ START_TEST(every_option_reads_back_what_it_writes)
     uint32_t count = 0;
     while (phks_option_name(count, PHKS_SPELLING_C))
         count++;
-    /* The 18 fields a caller sets: every one but version, progress,
+    /* The 19 fields a caller sets: every one but version, progress,
      * progress_user and the reserved space. */
-    ck_assert_uint_eq(count, 18);
+    ck_assert_uint_eq(count, 19);
     ck_assert_ptr_null(phks_option_name(count, PHKS_SPELLING_CLI));
     for (size_t s = 0; s < 2; s++)
         for (size_t k = 0; k < 2; k++)
@@ -153,6 +162,7 @@ START_TEST(types_are_what_the_fields_hold)
         {"tau", PHKS_OPTION_REAL},          {"boundary_margin", PHKS_OPTION_REAL},
         {"eigen_count", PHKS_OPTION_COUNT}, {"threads", PHKS_OPTION_COUNT},
         {"operator_kind", PHKS_OPTION_ENUM}, {"solver", PHKS_OPTION_ENUM},
+        {"local_descriptor", PHKS_OPTION_ENUM},
         {"scales", PHKS_OPTION_REALS},
     };
     for (size_t i = 0; i < sizeof expect / sizeof expect[0]; i++) {
@@ -214,6 +224,8 @@ START_TEST(bad_text_is_refused_and_changes_nothing)
         {"threads", "2000", "threads 2000 above 1024"},
         {"threads", "", "not a count"},
         {"operator", "7", "unknown operator_kind 7"},
+        {"local-descriptor", "7", "unknown local_descriptor 7"},
+        {"local-descriptor", "hks", "not one of heat, spin"},
         {"scales", "5,,20", "not a list of numbers"},
         {"scales", "5,-1", "scales[1] = -1"},
     };
@@ -304,6 +316,20 @@ START_TEST(compare_names_both_values_in_the_users_words)
     b.boundary_margin = 0.25;
     phks_options_compare(&a, &b, PHKS_SPELLING_CLI, detail, sizeof detail);
     ck_assert_str_eq(detail, "boundary-margin 2 against 0.25");
+    /* The local descriptor only between two VERIFIED sets: NEAREST
+     * ignores it. */
+    b = a;
+    b.local_descriptor = PHKS_LOCAL_DESCRIPTOR_HEAT;
+    phks_options_compare(&a, &b, PHKS_SPELLING_CLI, detail, sizeof detail);
+    ck_assert_str_eq(detail, "local-descriptor spin against heat");
+    a.matching = b.matching = PHKS_MATCHING_NEAREST;
+    ck_assert_int_eq(phks_options_compare(&a, &b, PHKS_SPELLING_C, NULL, 0),
+                     PHKS_OK);
+    b.matching = PHKS_MATCHING_VERIFIED;
+    phks_options_compare(&a, &b, PHKS_SPELLING_C, detail, sizeof detail);
+    ck_assert_str_eq(detail, "matching nearest against verified");
+    phks_options_compare(&b, &a, PHKS_SPELLING_C, detail, sizeof detail);
+    ck_assert_str_eq(detail, "matching verified against nearest");
     ck_assert_int_eq(phks_options_compare(NULL, &b, PHKS_SPELLING_C, NULL, 0),
                      PHKS_ERROR_INVALID_ARGUMENT);
     ck_assert_int_eq(phks_options_compare(&a, &b, PHKS_SPELLING_C, NULL, 8),

@@ -281,12 +281,15 @@ def mutate(rng, data, others, text=False):
 
 # ---------------------------------------------------------------------
 # Signature blobs (docs/formats.md): the options block, the scales, the
-# feature count, the features, (format 4) the layout, then a CRC-32 of
-# every byte before it.
+# feature count, the features, (format 4) the layout, (format 5 with
+# spin images) the points' images, then a CRC-32 of every byte before it.
 # ---------------------------------------------------------------------
+SPIN_BYTES = 120
+
+
 def header_size(fmt):
     return 52 + (12 if fmt >= 2 else 0) + (4 if fmt >= 3 else 0) + \
-        (4 if fmt >= 4 else 0)
+        (4 if fmt >= 4 else 0) + (4 if fmt >= 5 else 0)
 
 
 def blob_format(blob):
@@ -313,19 +316,22 @@ def with_field(blob, offset, fmt, value):
 def hostile_blobs(verified, nearest):
     """test_hostile.c's damaged blobs and more, resealed so that they pass
     the checksum and reach the checks behind it: (kind, blob, what the
-    error must say). verified: a format-4 blob (with its layout);
-    nearest: a format-2 one."""
+    error must say). verified: a format-4 blob (with its layout) or a
+    format-5 one (with its spin images too); nearest: a format-2 one."""
     v, n = verified, nearest
+    fmt = blob_format(v)
     features = count_offset(v) + 4
     scales = struct.unpack_from("<I", v, 48)[0]
     count = struct.unpack_from("<I", v, count_offset(v))[0]
     samples_at = features + count * (36 + 8 * scales)
+    points = count + struct.unpack_from("<I", v, samples_at)[0]
+    spin = fmt >= 5 and struct.unpack_from("<I", v, 72)[0] == 1
     out = [
         ("empty", b"", "shorter than any format"),
         ("seven bytes", v[:7], "shorter than any format"),
-        ("header only", v[:header_size(4)], "bytes"),
+        ("header only", v[:header_size(fmt)], "bytes"),
         ("bad magic", b"PHKZ" + v[4:], "magic"),
-        ("newer format", with_field(v, 4, "<H", 5), "newer"),
+        ("newer format", with_field(v, 4, "<H", 6), "newer"),
         ("format 0", with_field(v, 4, "<H", 0), "format 0"),
         ("flags", with_field(v, 6, "<H", 1), "flags"),
         ("count lies", with_field(v, count_offset(v), "<I", 0xFFFFFFFF),
@@ -356,9 +362,14 @@ def hostile_blobs(verified, nearest):
         # A matching without a layout: the size no longer fits.
         ("bad options", with_field(v, 68, "<I", 5), "need"),
         ("bad options", with_field(n, 60, "<I", 0xFFFFFFFF), "bad options"),
-        ("bad options", with_field(v, header_size(4), "<d", -1.0),
+        ("bad options", with_field(v, header_size(fmt), "<d", -1.0),
          "bad options"),
     ]
+    if spin:
+        # Another local descriptor: no images, the size no longer fits.
+        out += [("bad options", with_field(v, 72, "<I", 7), "need"),
+                ("bad options", with_field(v, 72, "<I", 0), "need"),
+                ("images cut", reseal(v[:-5] + v[-4:]), "need")]
     # Numbers no encoder writes, behind a right checksum.
     for what, offset, value in [("position", 4, float("inf")),
                                 ("persistence", 28, -1.0),
@@ -370,8 +381,7 @@ def hostile_blobs(verified, nearest):
                     with_field(v, features + offset, "<d", value),
                     "impossible number"))
     # The layout's last boundary distance and last geodesic one.
-    points = count + struct.unpack_from("<I", v, samples_at)[0]
-    geodesic_end = len(v) - 4
+    geodesic_end = len(v) - 4 - (points * SPIN_BYTES if spin else 0)
     boundary_end = geodesic_end - 4 * (points * (points - 1) // 2)
     for what, offset in (("boundary", boundary_end - 4),
                          ("geodesic", geodesic_end - 4)):
@@ -667,7 +677,8 @@ CREATE FUNCTION raw.key_distance(bytea, phks_signature) RETURNS float8
 # of the tool.
 OPTION_VARIANTS = [["--hks-scaling", "none"], ["--hks-scaling", "mean"],
                    ["--matching", "nearest"], ["--quadrature", "triangles"],
-                   ["--operator", "literal"], ["--boundary-margin", "0"]]
+                   ["--operator", "literal"], ["--boundary-margin", "0"],
+                   ["--local-descriptor", "heat"]]
 
 
 def start_cluster(work):
@@ -798,12 +809,15 @@ def mismatch_statements(variants):
 def part_blobs(pg, work, rng):
     valid = valid_signatures(work)
     blobs = [b for _, b in valid]
-    verified = [b for b in blobs if blob_format(b) == 4]
+    verified = [b for b in blobs if blob_format(b) in (4, 5)]
     nearest = [b for b in blobs if blob_format(b) == 2]
+    heat = [b for b in verified if blob_format(b) == 4]
+    spin = [b for b in verified if blob_format(b) == 5]
     print("%d valid blobs: %s" % (len(valid), ", ".join(n for n, _ in valid)))
     corpus_blobs = corpus_inputs("fuzz_signature", "fuzz_db")
     fixed = [(kind, b, None) for kind, b in corpus_blobs] + \
-        hostile_blobs(verified[-1], nearest[0])
+        hostile_blobs(heat[-1], nearest[0]) + \
+        hostile_blobs(spin[0], nearest[0])
     # The corpus's blobs of older formats are mutated too.
     bases = blobs + [b for kind, b in corpus_blobs if "signature" in kind]
     inputs = fixed + flipped_bytes(rng, blobs, 300) + \

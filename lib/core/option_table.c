@@ -34,25 +34,36 @@ static value_names quadrature_values = {{"vertices", "triangles", NULL},
                                         {"vertices", "triangles", NULL}};
 static value_names matching_values = {{"nearest", "verified", NULL},
                                       {"nearest", "verified", NULL}};
+static value_names local_descriptor_values = {{"heat", "spin", NULL},
+                                              {"heat", "spin", NULL}};
 static value_names solver_values = {
     {"auto", "lanczos", "arpack", "dense", NULL},
     {"auto", "lanczos", "arpack", "dense", NULL}};
 
-/* The order is the public index (phks.h): append only. Rows that shape a
- * signature's numbers come first, in the order a mismatch is looked for;
- * `spectrum` marks the subset a spectrum's eigenpairs depend on. Not
- * shaping: the solver, the tolerance and threads change how the numbers
- * are computed (or their last bits), not what they mean, and the HKS-simp
- * switch keeps a large mesh comparable with small ones. */
+/* The order is the public index (phks.h): append only, and it is the
+ * order a mismatch is looked for. 0.2.0's rows that shape a signature's
+ * numbers come first, then those that do not, then later versions' rows
+ * whatever they are; `spectrum` marks the rows a spectrum's eigenpairs
+ * depend on. Not shaping: the solver, the tolerance and threads change how
+ * the numbers are computed (or their last bits), not what they mean, and
+ * the HKS-simp switch keeps a large mesh comparable with small ones.
+ * `verified_only` rows shape a signature only when its matching is
+ * VERIFIED (NEAREST ignores them): matching's row comes before them, so
+ * two sets whose matching differs are told apart by it first, and a
+ * verified-only row is compared only between two VERIFIED sets. */
 static const struct option_row {
     const char *name[SPELLINGS];
     size_t offset;
     field_type type;
     value_names *values; /* FIELD_INT32 enums; NULL otherwise */
-    bool shaping, spectrum;
+    bool shaping, spectrum, verified_only;
 } rows[] = {
-#define ROW(c, cli, field, type, values, shaping, spectrum) \
-    {{c, cli}, offsetof(phks_options, field), type, values, shaping, spectrum}
+#define ROW(c, cli, field, type, values, shaping, spectrum)                 \
+    {{c, cli}, offsetof(phks_options, field), type, values, shaping, spectrum, \
+     false}
+#define VERIFIED_ROW(c, cli, field, values)                                  \
+    {{c, cli}, offsetof(phks_options, field), FIELD_INT32, values, true, false, \
+     true}
     ROW("tau", "tau", tau, FIELD_DOUBLE, NULL, true, true),
     ROW("cutoff", "cutoff", cutoff, FIELD_DOUBLE, NULL, true, true),
     ROW("eigen_count", "eigen-count", eigen_count, FIELD_UINT32, NULL, true,
@@ -84,6 +95,11 @@ static const struct option_row {
         NULL, false, false),
     ROW("simplify_target", "simplify-target", simplify_target, FIELD_UINT32,
         NULL, false, false),
+    /* Since 0.3.0: the spin images sit beside VERIFIED signatures' layout;
+     * NEAREST signatures have none and score alike under either value. */
+    VERIFIED_ROW("local_descriptor", "local-descriptor", local_descriptor,
+                 &local_descriptor_values),
+#undef VERIFIED_ROW
 #undef ROW
 };
 #define ROW_COUNT (sizeof rows / sizeof rows[0])
@@ -472,6 +488,17 @@ static bool equal_values(const phks_options *a, const phks_options *b,
     }
 }
 
+/* Whether row takes part in comparing a with b: a shaping row, of the
+ * spectrum's when only those are asked for, and a verified-only row only
+ * when a's matching is VERIFIED (b's is then too, or matching's row,
+ * looked at before, has already told them apart). */
+static bool compared(const struct option_row *row, const phks_options *a,
+                     bool spectrum_only)
+{
+    return row->shaping && (!spectrum_only || row->spectrum) &&
+           (!row->verified_only || a->matching == PHKS_MATCHING_VERIFIED);
+}
+
 /* The first shaping option that differs between a and b, in spelling,
  * with "NAME A against B" in detail; NULL when none does. */
 static const char *options_difference_in(const phks_options *a,
@@ -483,7 +510,7 @@ static const char *options_difference_in(const phks_options *a,
     for (size_t i = 0; i < ROW_COUNT; i++) {
         const struct option_row *row = &rows[i];
         uint32_t scale = 0;
-        if (!row->shaping || (spectrum_only && !row->spectrum) ||
+        if (!compared(row, a, spectrum_only) ||
             equal_values(a, b, row, &scale))
             continue;
         if (detail && size) {

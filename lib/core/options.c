@@ -49,6 +49,10 @@ phks_status phks_options_init(phks_options *options)
      * few similar points; their layout along the surface tells them
      * apart (docs/retrieval.md). */
     options->matching = PHKS_MATCHING_VERIFIED;
+    /* Heat at the larger scales sums over the whole shape, so a cut
+     * changes every feature vector; spin images of the surface near each
+     * point do not see a cut away from it (docs/method.md section 15). */
+    options->local_descriptor = PHKS_LOCAL_DESCRIPTOR_SPIN;
     return PHKS_OK;
 }
 
@@ -130,6 +134,13 @@ phks_status phks__options_resolve(const phks_options *user, phks_options *out)
         out->matching != PHKS_MATCHING_VERIFIED)
         return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "options: unknown matching %d", (int)out->matching);
+    /* Checked even with NEAREST, which ignores it: kept as given, a bad
+     * value would otherwise surface only when matching changes. */
+    if (out->local_descriptor != PHKS_LOCAL_DESCRIPTOR_HEAT &&
+        out->local_descriptor != PHKS_LOCAL_DESCRIPTOR_SPIN)
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
+                         "options: unknown local_descriptor %d",
+                         (int)out->local_descriptor);
     if (out->threads > 1024)
         return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "options: threads %u above 1024", out->threads);

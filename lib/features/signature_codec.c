@@ -9,6 +9,7 @@
  *   (format 2 on:) f64 boundary_margin  u32 hks_scaling
  *   (format 3 on:) u32 quadrature
  *   (format 4 on:) u32 matching
+ *   (format 5 on:) u32 local_descriptor
  *   f64 scales[scale_count]
  *   u32 count, then per feature:
  *     u32 vertex  f64 x y z  f64 persistence  f64 vector[scale_count]
@@ -17,15 +18,23 @@
  *   then, with p = count + samples points, f32 boundary[p] and
  *   f32 geodesic[p (p - 1) / 2], the pairs i < j in the order j = 1..,
  *   i = 0..j-1
+ *   (format 5 on, matching VERIFIED, local_descriptor SPIN:)
+ *   u8 spin[p * PHKS__SPIN_BYTES], each point's images as sig->spin holds
+ *   them, features first
  *   u32 CRC-32 of every byte before it
  * A reader refuses a format number above its own rather than guess
  * (unless the blob is too short for any format: SMALLEST_BLOB), and
  * reads every older one: format 1 blobs predate the two format-2 fields and
  * were made with them zero, format 2 ones predate the quadrature (0, the
- * vertices'), format 3 ones the matching (0, the nearest). The writer
- * uses the oldest format that holds the options: format 2 while
- * quadrature and matching are 0, so that a signature made without them
- * has the bytes it had before (and older readers still read it).
+ * vertices'), format 3 ones the matching (0, the nearest), format 4 ones
+ * the local descriptor (0, the heat vectors). The writer uses the oldest
+ * format that holds the options: format 2 while quadrature and matching
+ * are 0, so that a signature made without them has the bytes it had
+ * before (and older readers still read it). Format 5 only for VERIFIED
+ * signatures with a local descriptor other than HEAT: NEAREST ignores the
+ * local descriptor, so its blobs leave it out, keep their old bytes and
+ * decode with HEAT, whatever value the signature was made with (the two
+ * score alike; phks__options_difference does not compare it there).
  */
 #include "features/features.h"
 
@@ -33,11 +42,12 @@
 #include <stdio.h>
 #include <string.h>
 
-#define FORMAT 4
+#define FORMAT 5
 #define HEADER_SIZE_1 (4 + 2 + 2 + 8 + 8 + 4 + 4 + 8 + 4 + 4 + 4)
 #define FORMAT_2_FIELDS (8 + 4)
 #define FORMAT_3_FIELDS 4
 #define FORMAT_4_FIELDS 4
+#define FORMAT_5_FIELDS 4
 #define FEATURE_FIXED (4 + 3 * 8 + 8)
 /* Every format, this library's and later ones, starts with format 1's
  * header (later formats add their fields after it) and ends with the
@@ -49,12 +59,22 @@ static size_t header_size(unsigned format)
 {
     return HEADER_SIZE_1 + (format >= 2 ? FORMAT_2_FIELDS : 0) +
            (format >= 3 ? FORMAT_3_FIELDS : 0) +
-           (format >= 4 ? FORMAT_4_FIELDS : 0);
+           (format >= 4 ? FORMAT_4_FIELDS : 0) +
+           (format >= 5 ? FORMAT_5_FIELDS : 0);
 }
 
-/* samples is SIZE_MAX for a signature without a layout (NEAREST). */
+/* Whether a signature made with o carries spin images: they sit beside
+ * the layout, which only VERIFIED signatures have. */
+static bool has_spin(const phks_options *o)
+{
+    return o->matching == PHKS_MATCHING_VERIFIED &&
+           o->local_descriptor == PHKS_LOCAL_DESCRIPTOR_SPIN;
+}
+
+/* samples is SIZE_MAX for a signature without a layout (NEAREST); spin
+ * whether the layout is followed by the points' spin images. */
 static size_t blob_size(unsigned format, size_t scales, size_t count,
-                        size_t samples)
+                        size_t samples, bool spin)
 {
     size_t size = header_size(format) + 8 * scales + 4 +
                   count * (FEATURE_FIXED + 8 * scales) + 4;
@@ -62,7 +82,7 @@ static size_t blob_size(unsigned format, size_t scales, size_t count,
         return size;
     size_t points = count + samples;
     return size + 4 + samples * (4 + 12 + 4 * scales) + 4 * points +
-           4 * phks__pair_count(points);
+           4 * phks__pair_count(points) + (spin ? points * PHKS__SPIN_BYTES : 0);
 }
 
 static size_t layout_samples(const phks_signature *sig)
@@ -70,8 +90,6 @@ static size_t layout_samples(const phks_signature *sig)
     return sig->options.matching == PHKS_MATCHING_VERIFIED ? sig->samples
                                                            : SIZE_MAX;
 }
-
-
 
 static unsigned char *put_u16(unsigned char *p, uint16_t x)
 {
@@ -142,7 +160,9 @@ static double get_f64(const unsigned char **p)
 static unsigned format_of(const phks_signature *sig)
 {
     if (sig->options.matching != PHKS_MATCHING_NEAREST)
-        return 4;
+        return sig->options.local_descriptor != PHKS_LOCAL_DESCRIPTOR_HEAT
+                   ? 5
+                   : 4;
     return sig->options.quadrature != PHKS_QUADRATURE_VERTICES ? 3 : 2;
 }
 
@@ -161,6 +181,11 @@ static unsigned char *put_layout(unsigned char *p, const phks_signature *sig)
         p = put_f32(p, sig->boundary[i]);
     for (size_t k = 0; k < phks__pair_count(points); k++)
         p = put_f32(p, sig->geodesic[k]);
+    if (has_spin(&sig->options)) {
+        /* Bytes already: no byte order to fix. */
+        memcpy(p, sig->spin, points * PHKS__SPIN_BYTES);
+        p += points * PHKS__SPIN_BYTES;
+    }
     return p;
 }
 
@@ -179,12 +204,14 @@ static void get_layout(const unsigned char *p, phks_signature *sig)
         sig->boundary[i] = get_f32(&p);
     for (size_t k = 0; k < phks__pair_count(points); k++)
         sig->geodesic[k] = get_f32(&p);
+    if (has_spin(&sig->options))
+        memcpy(sig->spin, p, points * PHKS__SPIN_BYTES);
 }
 
 size_t phks_signature_encoded_size(const phks_signature *sig)
 {
     return sig ? blob_size(format_of(sig), sig->length, sig->count,
-                           layout_samples(sig))
+                           layout_samples(sig), has_spin(&sig->options))
                : 0;
 }
 
@@ -198,9 +225,13 @@ phks_status phks_signature_encode(const phks_signature *sig, void *buffer,
         return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "phks_signature_encode: a verified-matching "
                          "signature without its distances");
+    if (has_spin(&sig->options) && !sig->spin)
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
+                         "phks_signature_encode: a spin-image signature "
+                         "without its images");
     const unsigned format = format_of(sig);
     size_t need = blob_size(format, sig->length, sig->count,
-                            layout_samples(sig));
+                            layout_samples(sig), has_spin(&sig->options));
     *size = need;
     if (capacity < need)
         return phks__fail(PHKS_ERROR_BUFFER_TOO_SMALL,
@@ -225,6 +256,8 @@ phks_status phks_signature_encode(const phks_signature *sig, void *buffer,
         p = put_u32(p, (uint32_t)o->quadrature);
     if (format >= 4)
         p = put_u32(p, (uint32_t)o->matching);
+    if (format >= 5)
+        p = put_u32(p, (uint32_t)o->local_descriptor);
     for (uint32_t s = 0; s < o->scale_count; s++)
         p = put_f64(p, o->scales[s]);
     p = put_u32(p, (uint32_t)sig->count);
@@ -330,6 +363,9 @@ phks_status phks_signature_decode(const void *buffer, size_t size,
     o.matching = PHKS_MATCHING_NEAREST;
     if (format >= 4)
         o.matching = (int32_t)get_u32(&p);
+    o.local_descriptor = PHKS_LOCAL_DESCRIPTOR_HEAT;
+    if (format >= 5)
+        o.local_descriptor = (int32_t)get_u32(&p);
     if (o.scale_count < 1 || o.scale_count > PHKS_MAX_SCALES)
         return phks__fail(PHKS_ERROR_CORRUPT, "signature blob: %u scales",
                          o.scale_count);
@@ -340,7 +376,8 @@ phks_status phks_signature_decode(const void *buffer, size_t size,
     uint32_t count = get_u32(&p);
     /* The samples' count sits after the features. */
     size_t samples = SIZE_MAX;
-    size_t features_end = blob_size(format, o.scale_count, count, SIZE_MAX) - 4;
+    size_t features_end =
+        blob_size(format, o.scale_count, count, SIZE_MAX, false) - 4;
     if (o.matching == PHKS_MATCHING_VERIFIED) {
         if (size < features_end + 4)
             return phks__fail(PHKS_ERROR_TRUNCATED,
@@ -352,7 +389,8 @@ phks_status phks_signature_decode(const void *buffer, size_t size,
             return phks__fail(PHKS_ERROR_CORRUPT,
                              "signature blob: %zu samples", samples);
     }
-    size_t need = blob_size(format, o.scale_count, count, samples);
+    size_t need = blob_size(format, o.scale_count, count, samples,
+                            has_spin(&o));
     if (size < need)
         return phks__fail(PHKS_ERROR_TRUNCATED,
                          "signature blob: %zu bytes, %u features need %zu",
@@ -371,14 +409,17 @@ phks_status phks_signature_decode(const void *buffer, size_t size,
     phks_signature *sig;
     phks_status st = phks__signature_alloc(
         count, samples == SIZE_MAX ? 0 : samples, o.scale_count, &sig);
-    if (st == PHKS_OK && samples != SIZE_MAX) {
-        st = phks__signature_alloc_layout(sig);
-        if (st != PHKS_OK)
-            phks_signature_free(sig);
-    }
     if (st != PHKS_OK)
         return st;
+    /* Before the layout: the options say whether it has spin images. */
     sig->options = o;
+    if (samples != SIZE_MAX) {
+        st = phks__signature_alloc_layout(sig);
+        if (st != PHKS_OK) {
+            phks_signature_free(sig);
+            return st;
+        }
+    }
     for (size_t i = 0; i < count; i++) {
         sig->vertex[i] = get_u32(&p);
         for (int d = 0; d < 3; d++)

@@ -208,13 +208,42 @@ def test_matching_option_round_trips(creature_mesh, creature_nearest,
         creature_nearest)
     assert_same_signature(phks.signature(creature_mesh, matching=0),
                           creature_nearest)
-    assert phks.decode(creature_nearest.encode()).options == \
-        creature_nearest.options
+    # NEAREST ignores the local descriptor: its blob leaves it out, and
+    # the signature decodes with "heat" (docs/formats.md, format 5).
+    back = phks.decode(creature_nearest.encode())
+    assert back.options == dict(creature_nearest.options,
+                                local_descriptor="heat")
+    assert phks.score(back, creature_nearest) == 0
     with pytest.raises(ValueError):
         phks.signature(creature_mesh, matching="closest")
     with pytest.raises(phks.Error) as e:
         phks.score(creature_nearest, creature_signature)
     assert e.value.status == phks.Status.INCOMPATIBLE
+
+
+def test_local_descriptor_option(creature_mesh, creature_signature):
+    assert phks.default_options()["local_descriptor"] == "spin"
+    assert creature_signature.options["local_descriptor"] == "spin"
+    heat = phks.signature(creature_mesh, local_descriptor="heat")
+    assert heat.options["local_descriptor"] == "heat"
+    assert phks.signature(creature_mesh, local_descriptor=0,
+                          feature_count=3).options["local_descriptor"] == \
+        "heat"
+    # Spin images: 120 bytes per point (features and samples) and the
+    # field; the heat blob is format 4's.
+    spin_blob, heat_blob = creature_signature.encode(), heat.encode()
+    assert heat_blob[4] == 4 and spin_blob[4] == 5
+    assert (len(spin_blob) - len(heat_blob) - 4) % 120 == 0
+    assert len(spin_blob) - len(heat_blob) - 4 >= 120 * len(heat)
+    assert phks.decode(heat_blob).options == heat.options
+    assert phks.decode(spin_blob).options == creature_signature.options
+    # Verified signatures of other local descriptors do not compare.
+    with pytest.raises(phks.Error) as e:
+        phks.score(heat, creature_signature)
+    assert e.value.status == phks.Status.INCOMPATIBLE
+    assert "local_descriptor heat against spin" in e.value.message
+    with pytest.raises(ValueError):
+        phks.signature(creature_mesh, local_descriptor="hks")
 
 
 def test_verified_score_is_asymmetric(creature_signature, other_signature):

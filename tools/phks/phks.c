@@ -22,6 +22,10 @@ static const char usage_text[] =
     "  --matching verified|nearest         how signatures are scored: verified\n"
     "                                      correspondences, or the paper's\n"
     "                                      nearest vectors (verified)\n"
+    "  --local-descriptor spin|heat        what proposes the correspondences\n"
+    "                                      verified matching checks: spin\n"
+    "                                      images, or the HKS vectors (spin;\n"
+    "                                      ignored with --matching nearest)\n"
     "  --threads N                         0 = one per CPU (0)\n"
     "  --object NAME                       read only this OBJ object or group,\n"
     "                                      or glTF/FBX/... node or mesh\n"
@@ -59,7 +63,7 @@ static const char usage_text[] =
 static const char *const globals[] = {"--operator", "--threads",
                                       "--boundary-margin", "--hks-scaling",
                                       "--quadrature", "--matching",
-                                      "--object"};
+                                      "--local-descriptor", "--object"};
 
 /* Global options without a value. */
 static int take_flag(const char *arg)

@@ -75,10 +75,11 @@ void cli_json_options(const phks_options *o)
     fputs(", \"boundary_margin\": ", stdout);
     cli_json_number(o->boundary_margin);
     printf(", \"hks_scaling\": \"%s\", \"quadrature\": \"%s\", "
-           "\"matching\": \"%s\", "
+           "\"matching\": \"%s\", \"local_descriptor\": \"%s\", "
            "\"simplify_above\": %u, \"simplify_target\": %u}",
            cli_value_name("hks-scaling", o->hks_scaling),
            cli_value_name("quadrature", o->quadrature),
-           cli_value_name("matching", o->matching), o->simplify_above,
-           o->simplify_target);
+           cli_value_name("matching", o->matching),
+           cli_value_name("local-descriptor", o->local_descriptor),
+           o->simplify_above, o->simplify_target);
 }

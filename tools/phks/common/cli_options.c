@@ -24,8 +24,8 @@ void cli_print_options(FILE *out, const char *prefix, const phks_options *o)
 {
     fprintf(out, "%soperator %s, box %s, tau %g, cutoff %g, eigenpairs %u, "
             "features %u at %g tau, %u scales (%g..%g tau), boundary margin "
-            "%g, HKS scaling %s, quadrature %s, matching %s, HKS-simp above %u vertices "
-            "(target %u)\n",
+            "%g, HKS scaling %s, quadrature %s, matching %s%s%s, HKS-simp "
+            "above %u vertices (target %u)\n",
             prefix, cli_value_name("operator", o->operator_kind),
             cli_value_name("box", o->box),
             o->tau, o->cutoff, o->eigen_count, o->feature_count,
@@ -35,6 +35,12 @@ void cli_print_options(FILE *out, const char *prefix, const phks_options *o)
             cli_value_name("hks-scaling", o->hks_scaling),
             cli_value_name("quadrature", o->quadrature),
             cli_value_name("matching", o->matching),
+            /* NEAREST ignores the local descriptor: not shown there. */
+            o->matching == PHKS_MATCHING_VERIFIED ? ", local descriptor "
+                                                  : "",
+            o->matching == PHKS_MATCHING_VERIFIED
+                ? cli_value_name("local-descriptor", o->local_descriptor)
+                : "",
             o->simplify_above, o->simplify_target);
 }
 
