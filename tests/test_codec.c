@@ -53,6 +53,7 @@ static phks_signature *make_verified(size_t count, size_t samples,
         sig->geodesic[k] = (float)test_random(&seed);
     if (descriptor == PHKS_LOCAL_DESCRIPTOR_SPIN) {
         ck_assert_ptr_nonnull(sig->spin);
+        sig->unit_scale = 0.25 + test_random(&seed);
         for (size_t b = 0; b < points * PHKS__SPIN_BYTES; b++)
             sig->spin[b] = (uint8_t)(1 + (b * 37 + b / PHKS__SPIN_BYTES) % 255);
     } else {

@@ -512,6 +512,7 @@ static phks_signature *verified_synthetic(size_t count, uint64_t *seed,
         sig->geodesic[k] = (float)(0.1 + test_random(seed));
     for (size_t b = 0; sig->spin && b < count * PHKS__SPIN_BYTES; b++)
         sig->spin[b] = (uint8_t)(b * 13 + 1);
+    sig->unit_scale = 0.5;
     return sig;
 }
 

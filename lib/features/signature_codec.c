@@ -19,6 +19,8 @@
  *   f32 geodesic[p (p - 1) / 2], the pairs i < j in the order j = 1..,
  *   i = 0..j-1
  *   (format 5 on, matching VERIFIED, local_descriptor SPIN:)
+ *   f64 unit_scale (positions times it lie in the unit box, so the
+ *   points' straight-line distances there are known), then
  *   u8 spin[p * PHKS__SPIN_BYTES], each point's images as sig->spin holds
  *   them, features first
  *   u32 CRC-32 of every byte before it
@@ -82,7 +84,8 @@ static size_t blob_size(unsigned format, size_t scales, size_t count,
         return size;
     size_t points = count + samples;
     return size + 4 + samples * (4 + 12 + 4 * scales) + 4 * points +
-           4 * phks__pair_count(points) + (spin ? points * PHKS__SPIN_BYTES : 0);
+           4 * phks__pair_count(points) +
+           (spin ? 8 + points * PHKS__SPIN_BYTES : 0);
 }
 
 static size_t layout_samples(const phks_signature *sig)
@@ -182,6 +185,7 @@ static unsigned char *put_layout(unsigned char *p, const phks_signature *sig)
     for (size_t k = 0; k < phks__pair_count(points); k++)
         p = put_f32(p, sig->geodesic[k]);
     if (has_spin(&sig->options)) {
+        p = put_f64(p, sig->unit_scale);
         /* Bytes already: no byte order to fix. */
         memcpy(p, sig->spin, points * PHKS__SPIN_BYTES);
         p += points * PHKS__SPIN_BYTES;
@@ -204,8 +208,10 @@ static void get_layout(const unsigned char *p, phks_signature *sig)
         sig->boundary[i] = get_f32(&p);
     for (size_t k = 0; k < phks__pair_count(points); k++)
         sig->geodesic[k] = get_f32(&p);
-    if (has_spin(&sig->options))
+    if (has_spin(&sig->options)) {
+        sig->unit_scale = get_f64(&p);
         memcpy(sig->spin, p, points * PHKS__SPIN_BYTES);
+    }
 }
 
 size_t phks_signature_encoded_size(const phks_signature *sig)
@@ -297,6 +303,8 @@ static phks_status check_numbers(const phks_signature *sig)
         for (size_t j = 0; ok && sig->geodesic && j < i; j++)
             ok = sig->geodesic[phks__pair_index(j, i)] >= 0;
         ok = ok && (!sig->boundary || sig->boundary[i] >= 0);
+        ok = ok && (!sig->spin || (isfinite(sig->unit_scale) &&
+                                   sig->unit_scale > 0));
         if (!ok)
             return phks__fail(PHKS_ERROR_CORRUPT,
                              "signature blob: feature %zu holds an impossible "

@@ -1,12 +1,14 @@
 /*
  * verify.c - PHKS_MATCHING_VERIFIED: descriptors propose, geometry
- * decides (docs/method.md section 14).
+ * decides (docs/method.md sections 14 and 15).
  *
  * Each feature of the query a proposes the CANDIDATES points of the
- * entry b (features and samples) whose vectors are nearest. Two
- * proposals (i, j) and (i', j') agree when the distance along a's
- * surface between i and i' is that along b's between j and j', times the
- * scale s of a's unit box against b's. The largest mutually agreeing set
+ * entry b (features and samples) whose vectors are nearest, and with
+ * spin images those whose images are nearest too. Two proposals (i, j)
+ * and (i', j') agree when the distance along a's surface between i and
+ * i' is that along b's between j and j', times the scale s of a's unit
+ * box against b's (with spin images, or when their straight-line
+ * distances do). The largest mutually agreeing set
  * is found as Leordeanu and Hebert's spectral matching does: the leading
  * eigenvector of the proposals' affinity matrix, read greedily into a
  * one-to-one set whose members each agree with most of those taken
@@ -257,9 +259,9 @@ struct phks__verifier {
     double *sum, *last; /* nb each: distances' running sums and steps   */
     double *weight_sum;  /* na x nb: the step weights' sum                */
     double *dist;     /* na x nb descriptor distances                     */
-    bool spin;        /* both carry spin images, which then propose       */
-    bool both;        /* ... and the vectors too */
-    double *dist_image;
+    bool spin;        /* both carry spin images, which then propose
+                         beside the vectors                              */
+    double *dist_image; /* na x nb image distances (spin)                 */
     float *ia, *ib;   /* their images as unit vectors, PHKS__SPIN_BYTES a
                          point                                          */
     double *image_distance; /* na x nb x radii x radii: the Hellinger
@@ -472,13 +474,6 @@ static void image_distances_at(phks__verifier *c, int steps)
         }
 }
 
-/* Each query feature's CANDIDATES nearest entry points (lower index
- * first on ties); the affinities of those kept only. The boundary
- * weights have their say once, inside dist: a proposal's affinity was
- * also multiplied by the share of weight left, which on a partial scan,
- * where the heat of most points reaches the silhouette, silenced the
- * geometry (docs/retrieval.md, "Every direction on the whole
- * benchmark"). */
 /* The `per` nearest of b's points by row into mine[].j, nearest first
  * (lower index on ties), leaving out the first `given` of mine; returns
  * how many of mine are taken, given included. */
@@ -501,6 +496,16 @@ static size_t nearest_points(const double *row, size_t nb, size_t per,
     return given + have;
 }
 
+/* Each query feature's CANDIDATES nearest entry points by vector (lower
+ * index first on ties), and with spin images first the CANDIDATES
+ * nearest by image: the images find a point's own counterpart, the
+ * vectors one of its class (docs/method.md section 15). A proposal's
+ * affinity is the better of the two descriptors'. The boundary
+ * weights have their say once, inside dist: a proposal's affinity was
+ * also multiplied by the share of weight left, which on a partial scan,
+ * where the heat of most points reaches the silhouette, silenced the
+ * geometry (docs/retrieval.md, "Every direction on the whole
+ * benchmark"). */
 static void propose(phks__verifier *c)
 {
     size_t nb = c->nb, per = nb < CANDIDATES ? nb : CANDIDATES;
@@ -512,11 +517,10 @@ static void propose(phks__verifier *c)
         size_t have = 0;
         if (c->spin)
             have = nearest_points(image, nb, per, mine, 0);
-        if (!c->spin || c->both)
-            have = nearest_points(row, nb, per, mine, have);
+        have = nearest_points(row, nb, per, mine, have);
         for (size_t m = 0; m < have; m++) {
             uint32_t j = mine[m].j;
-            double u = c->spin && !c->both ? 0 : proposal_affinity(row[j], false, c->length);
+            double u = proposal_affinity(row[j], false, c->length);
             if (c->spin)
                 u = fmax(u, proposal_affinity(image[j], true, c->length));
             mine[m] = (proposal){(uint32_t)i, j, u, sqrt(u)};
@@ -730,8 +734,7 @@ static void propose_at(phks__verifier *c, int steps)
             c->sb_scaled[k] = scale * c->sb[k];
     if (c->spin)
         image_distances_at(c, steps);
-    if (!c->spin || c->both)
-        distances(c, vb);
+    distances(c, vb);
     propose(c);
 }
 
@@ -887,8 +890,7 @@ void phks__verifier_run(phks__verifier *c, const phks_signature *b,
     step_weights(c);
     square_distances(b, c->nb, c->gb);
     c->spin = c->a->spin && b->spin;
-    c->both = c->spin && getenv("PHKS_BOTH");
-    c->straight = c->spin && c->a->unit_scale > 0 && b->unit_scale > 0 && !getenv("PHKS_NO_STRAIGHT");
+    c->straight = c->spin && c->a->unit_scale > 0 && b->unit_scale > 0;
     if (c->straight)
         straight_distances(b, c->nb, c->sb);
     if (c->spin) {
