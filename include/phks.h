@@ -371,9 +371,9 @@ typedef struct phks_options {
                                 the distances between their feature
                                 points                                   */
     int32_t local_descriptor; /* phks_local_descriptor: what proposes the
-                                correspondences VERIFIED checks: SPIN
-                                (since 0.3.0; HEAT before). Ignored with
-                                NEAREST                                  */
+                                correspondences VERIFIED checks: HEAT
+                                (SPIN is measured in docs/retrieval.md,
+                                "Spin images"). Ignored with NEAREST     */
     uint64_t reserved[20];   /* zero; room for fields of later versions  */
 } phks_options;
 

@@ -573,12 +573,12 @@ expect_out '"local_descriptor": "heat"'
 run "$phks" --local-descriptor hks signature box.off; expect_rc 2 \
     "--local-descriptor hks"
 expect_err "^phks: --local-descriptor: 'hks' is not one of heat, spin$"
-run "$phks" --local-descriptor heat db query t.db box.off; expect_rc 1 \
-    "db query --local-descriptor heat against a database of spin images"
-expect_err "^phks: t.db: the options given are not the database's: --local-descriptor heat against spin "
-run "$phks" --local-descriptor heat signature box.off -o h.sig; expect_rc 0
+run "$phks" --local-descriptor spin db query t.db box.off; expect_rc 1 \
+    "db query --local-descriptor spin against a database of heat vectors"
+expect_err "^phks: t.db: the options given are not the database's: --local-descriptor spin against heat "
+run "$phks" --local-descriptor spin signature box.off -o h.sig; expect_rc 0
 run "$phks" match h.sig box.off; expect_rc 1 "match of blobs made with other local descriptors"
-expect_err "^phks: h.sig and box.off: made with different options: --local-descriptor heat against spin$"
+expect_err "^phks: h.sig and box.off: made with different options: --local-descriptor spin against heat$"
 run "$phks" --matching nearest --local-descriptor heat signature box.off \
     -o hn.sig; expect_rc 0
 run "$phks" --matching nearest match hn.sig box.off; expect_rc 0 \

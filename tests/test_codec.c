@@ -362,7 +362,7 @@ START_TEST(format_5_round_trip_keeps_the_spin_images)
     size_t layout = 4 + samples * (4 + 12 + 4 * 15) + 4 * points +
                     4 * phks__pair_count(points);
     ck_assert_uint_eq(size, 76 + 15 * 8 + 4 + count * (4 + 32 + 15 * 8) +
-                                layout + points * PHKS__SPIN_BYTES + 4);
+                                layout + 8 + points * PHKS__SPIN_BYTES + 4);
     ck_assert_mem_eq(blob + size - 4 - points * PHKS__SPIN_BYTES, sig->spin,
                      points * PHKS__SPIN_BYTES);
     phks_signature *back;
@@ -370,6 +370,7 @@ START_TEST(format_5_round_trip_keeps_the_spin_images)
     ck_assert_int_eq(back->options.local_descriptor,
                      PHKS_LOCAL_DESCRIPTOR_SPIN);
     ck_assert_uint_eq(back->samples, samples);
+    ck_assert(back->unit_scale == sig->unit_scale);
     ck_assert_ptr_nonnull(back->spin);
     ck_assert_mem_eq(back->spin, sig->spin, points * PHKS__SPIN_BYTES);
     ck_assert_mem_eq(back->vectors, sig->vectors,
@@ -401,7 +402,7 @@ START_TEST(heat_keeps_format_4_bytes)
     unsigned char *five = encode(spin, &size5);
     unsigned char *four = encode(heat, &size4);
     ck_assert_uint_eq(four[4], 4);
-    ck_assert_uint_eq(size5, size4 + 4 + points * PHKS__SPIN_BYTES);
+    ck_assert_uint_eq(size5, size4 + 4 + 8 + points * PHKS__SPIN_BYTES);
     unsigned char *cut = malloc(size4);
     memcpy(cut, five, 72);
     memcpy(cut + 72, five + 76, size4 - 72 - 4);

@@ -282,9 +282,10 @@ def mutate(rng, data, others, text=False):
 # ---------------------------------------------------------------------
 # Signature blobs (docs/formats.md): the options block, the scales, the
 # feature count, the features, (format 4) the layout, (format 5 with
-# spin images) the points' images, then a CRC-32 of every byte before it.
+# spin images) the unit box's scale and the points' images, then a CRC-32
+# of every byte before it.
 # ---------------------------------------------------------------------
-SPIN_BYTES = 120
+SPIN_BYTES = 100
 
 
 def header_size(fmt):
@@ -381,7 +382,7 @@ def hostile_blobs(verified, nearest):
                     with_field(v, features + offset, "<d", value),
                     "impossible number"))
     # The layout's last boundary distance and last geodesic one.
-    geodesic_end = len(v) - 4 - (points * SPIN_BYTES if spin else 0)
+    geodesic_end = len(v) - 4 - (8 + points * SPIN_BYTES if spin else 0)
     boundary_end = geodesic_end - 4 * (points * (points - 1) // 2)
     for what, offset in (("boundary", boundary_end - 4),
                          ("geodesic", geodesic_end - 4)):
@@ -678,7 +679,7 @@ CREATE FUNCTION raw.key_distance(bytea, phks_signature) RETURNS float8
 OPTION_VARIANTS = [["--hks-scaling", "none"], ["--hks-scaling", "mean"],
                    ["--matching", "nearest"], ["--quadrature", "triangles"],
                    ["--operator", "literal"], ["--boundary-margin", "0"],
-                   ["--local-descriptor", "heat"]]
+                   ["--local-descriptor", "spin"]]
 
 
 def start_cluster(work):

@@ -44,7 +44,8 @@ struct phks_signature {
                               NEAREST                                    */
     double unit_scale;     /* positions times this lie in the unit box;
                               0 where unknown (blobs of format 4 and
-                              older), NAN never                          */
+                              older, a database's options), then no
+                              straight-line distances                    */
     uint8_t *spin;         /* VERIFIED with PHKS_LOCAL_DESCRIPTOR_SPIN:
                               points x PHKS__SPIN_BYTES, each point's
                               spin images (geometry.h); NULL otherwise  */

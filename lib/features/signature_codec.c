@@ -303,8 +303,9 @@ static phks_status check_numbers(const phks_signature *sig)
         for (size_t j = 0; ok && sig->geodesic && j < i; j++)
             ok = sig->geodesic[phks__pair_index(j, i)] >= 0;
         ok = ok && (!sig->boundary || sig->boundary[i] >= 0);
+        /* 0: unknown (a database's options blob has no box). */
         ok = ok && (!sig->spin || (isfinite(sig->unit_scale) &&
-                                   sig->unit_scale > 0));
+                                   sig->unit_scale >= 0));
         if (!ok)
             return phks__fail(PHKS_ERROR_CORRUPT,
                              "signature blob: feature %zu holds an impossible "

@@ -222,24 +222,25 @@ def test_matching_option_round_trips(creature_mesh, creature_nearest,
 
 
 def test_local_descriptor_option(creature_mesh, creature_signature):
-    assert phks.default_options()["local_descriptor"] == "spin"
-    assert creature_signature.options["local_descriptor"] == "spin"
-    heat = phks.signature(creature_mesh, local_descriptor="heat")
-    assert heat.options["local_descriptor"] == "heat"
+    assert phks.default_options()["local_descriptor"] == "heat"
+    assert creature_signature.options["local_descriptor"] == "heat"
+    heat = creature_signature
+    spin = phks.signature(creature_mesh, local_descriptor="spin")
+    assert spin.options["local_descriptor"] == "spin"
     assert phks.signature(creature_mesh, local_descriptor=0,
                           feature_count=3).options["local_descriptor"] == \
         "heat"
-    # Spin images: 120 bytes per point (features and samples) and the
-    # field; the heat blob is format 4's.
-    spin_blob, heat_blob = creature_signature.encode(), heat.encode()
+    # Spin images: the field, the unit box's scale and 100 bytes per point
+    # (features and samples); the heat blob is format 4's.
+    spin_blob, heat_blob = spin.encode(), heat.encode()
     assert heat_blob[4] == 4 and spin_blob[4] == 5
-    assert (len(spin_blob) - len(heat_blob) - 4) % 120 == 0
-    assert len(spin_blob) - len(heat_blob) - 4 >= 120 * len(heat)
+    assert (len(spin_blob) - len(heat_blob) - 12) % 100 == 0
+    assert len(spin_blob) - len(heat_blob) - 12 >= 100 * len(heat)
     assert phks.decode(heat_blob).options == heat.options
-    assert phks.decode(spin_blob).options == creature_signature.options
+    assert phks.decode(spin_blob).options == spin.options
     # Verified signatures of other local descriptors do not compare.
     with pytest.raises(phks.Error) as e:
-        phks.score(heat, creature_signature)
+        phks.score(heat, spin)
     assert e.value.status == phks.Status.INCOMPATIBLE
     assert "local_descriptor heat against spin" in e.value.message
     with pytest.raises(ValueError):
