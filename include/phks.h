@@ -923,6 +923,31 @@ PHKS_API phks_status phks_match(const phks_signature *a,
                                 phks_correspondence *out, size_t capacity,
                                 size_t *count, double *score);
 
+/* A score a reader can weigh: a similarity in [0, 1], 1 for a signature
+ * against itself, and how many of the query's features were verified.
+ *
+ * PHKS_MATCHING_VERIFIED: similarity = Q = 1 - score / nearest, the share
+ * of the query the verified set explains (phks_score's Q), with score =
+ * phks_score(query, entry) and nearest = phks_score_nearest(query, entry);
+ * 1 when nearest is 0. *verified = the rows of phks_match(query, entry)
+ * with from_a = 1 and verified = 1, at most
+ * phks_signature_feature_count(query).
+ *
+ * PHKS_MATCHING_NEAREST (nothing is verified: *verified = 0):
+ * similarity = exp(-nearest / ((n_q + n_e) L 0.15)), n_q and n_e the
+ * feature counts and L the vector length: a mean difference of 0.15 per
+ * time scale between a feature and its nearest costs a factor e, as in
+ * the verifier (docs/method.md section 14, "What a score means"); 1 for
+ * identical vectors. Symmetric.
+ *
+ * What a similarity says about classes is measured, not promised:
+ * docs/retrieval.md, "What a score means". verified may be NULL.
+ * Errors as phks_score, and PHKS_ERROR_INVALID_ARGUMENT for a NULL
+ * similarity. Costs one phks_score. Thread-safe. Since 0.3.0. */
+PHKS_API phks_status phks_similarity(const phks_signature *query,
+                                     const phks_signature *entry,
+                                     double *similarity, size_t *verified);
+
 /* =====================================================================
  * Shape databases
  * =====================================================================

@@ -151,13 +151,22 @@ cp out nearest.json
 run "$phks" match a.off b.off --json; expect_rc 0 "match --json"
 cp out match.json
 run "$phks" match a.off b.off; expect_rc 0 "match text"
-text_score=$(sed -n 's/^score //p' out)
+text_score=$(sed -n 's/^score \([^ ]*\) .*/\1/p' out)
 $py -c 'import json,sys; d=json.load(open("match.json"))
 n = json.load(open("nearest.json"))
 assert "%.6g" % d["score"] == sys.argv[1], (d["score"], sys.argv[1])
 c = n["correspondences"]
 assert abs(sum(x["distance"] for x in c) - n["score"]) < 1e-9 * n["score"]
 assert not any(x["verified"] for x in c)
+# nothing verified; the similarity in (0, 1) by the NEAREST formula
+assert n["verified"] == 0 and n["features"] > 0, n
+assert 0 < n["similarity"] < 1, n["similarity"]
+# two different shapes: the similarity in [0, 1], verified at most all
+assert 0 <= d["similarity"] <= 1, d["similarity"]
+assert 0 <= d["verified"] <= d["features"], (d["verified"], d["features"])
+nv = sum(1 for x in d["correspondences"] if x["direction"] == "a_to_b"
+         and x["verified"])
+assert d["verified"] == nv, (d["verified"], nv)
 # verified: the paper score times 1 - the share verified, never above it
 assert 0 <= d["score"] <= n["score"] * (1 + 1e-12), (d["score"], n["score"])
 c = d["correspondences"]
@@ -302,7 +311,7 @@ assert d["vertices"] == 8 and d["triangles"] == 12, d' < out ||
     run "$phks" signature cube.glb -o glb.sig; expect_rc 0 "signature of .glb"
     expect_out "8 vertices, 12 triangles"
     run "$phks" match glb.sig cube.off; expect_rc 0 "match GLB, OFF"
-    expect_out "^score 0$"
+    expect_out "^score 0  similarity 1.000  "
     # Compressed scenes: inflated, then read by assimp under the name
     # without .gz, so that the files a scene refers to are found beside
     # it (a glTF's .bin here, from another folder).
@@ -311,7 +320,7 @@ assert d["vertices"] == 8 and d["triangles"] == 12, d' < out ||
         "signature of .glb.gz"
     expect_out "8 vertices, 12 triangles"
     run "$phks" match glbgz.sig cube.off; expect_rc 0 "match .glb.gz, OFF"
-    expect_out "^score 0$"
+    expect_out "^score 0  similarity 1.000  "
     mkdir split
     $py -c 'import base64, json
 d = json.load(open("cube.gltf"))
@@ -371,7 +380,14 @@ fi
 run "$phks" match a.off b.off; expect_rc 0 "match meshes"
 expect_out "^score "; expect_out "position in A"
 run "$phks" match a.sig a.off; expect_rc 0 "match blob and mesh"
-expect_out "^score 0$"
+expect_out "^score 0  similarity 1.000  verified \([0-9]*\) of \1$"
+run "$phks" match a.sig a.off --json; expect_rc 0 "match itself --json"
+$py -c 'import json,sys; d=json.load(sys.stdin)
+assert d["similarity"] == 1 and d["verified"] == d["features"] > 0, d' \
+    < out || fail "match of a signature with itself: not 1, n of n"
+run "$phks" --matching nearest match a.off b.off; expect_rc 0 \
+    "match --matching nearest"
+expect_out "^score [0-9.]*  similarity 0\.[0-9]*  verified 0 of [1-9]"
 run "$phks" match a.sig b.off --operator literal; expect_rc 1 \
     "match of different options"
 expect_err "different options"
@@ -516,10 +532,11 @@ $py -c 'import json,sys; d=json.load(sys.stdin)
 assert [e["name"] for e in d] == sys.argv[1:], d' set/bar/* set/star/* \
     < j4-1.json || fail "db add -j 4: the ids are not in the order given"
 run "$phks" db query t.db a.sig -k 2; expect_rc 0 "db query"
-expect_out "^ *1 *1 *0 *blob *a.off$"
+expect_out "^ *1 *1 *0 *1.000 *\([0-9]*\)/\1 *blob *a.off$"
+expect_out "similarity verified"
 [ "$(wc -l < out)" -eq 3 ] || fail "db query -k 2: not 2 hits"
 run "$phks" db query t.db a.off --json -k 1; expect_rc 0 "db query --json"
-expect_out '"rank": 1, "id": 1, "score": 0, "label": "blob", "name": "a.off"'
+expect_out '"rank": 1, "id": 1, "score": 0, "similarity": 1, "verified": \([0-9]*\), "features": \1, "label": "blob", "name": "a.off"'
 if command -v python3 >/dev/null; then
     python3 -c 'import json,sys; assert len(json.load(sys.stdin)) == 1' \
         < out || fail "db query --json: not JSON"
@@ -694,8 +711,11 @@ expect_out "next to the cut"
 expect_out "8 models: 2 query models (6 queries per seed), 6 database models"
 expect_out "Signatures: 12 computed, 0 from the cache"
 [ "$(wc -l < q.tsv)" -eq 7 ] || fail "bench: q.tsv has not 7 lines"
-head -1 q.tsv | grep -q "^file	kind	seed	class	rank	top1_label$" ||
+head -1 q.tsv | grep -q "^file	kind	seed	class	rank	top1_label	top1_score	top1_similarity	top1_verified	features$" ||
     fail "bench: q.tsv header"
+awk -F'\t' 'NR > 1 && !($8 >= 0 && $8 <= 1 && $9 <= $10 && $10 > 0 &&
+                        $7 >= 0) { bad = 1 } END { exit bad }' q.tsv ||
+    fail "bench: q.tsv top1 score, similarity or verified out of range"
 [ "$(ls cache | grep -c '^[0-9a-f]\{16\}\.sig$')" -eq 12 ] ||
     fail "bench: cache has not 12 signatures"
 cp q.tsv q1.tsv

@@ -362,7 +362,7 @@ cmp -s two.png two-again.png || fail "two renders of a.off b.off differ"
 # The library's verified pairs and score (`phks match`): A's rows ending in
 # "verified".
 run "$phks" match a.off b.off; expect_rc 0 "match"
-score=$(sed -n 's/^score //p' out)
+score=$(sed -n 's/^score \([^ ]*\) .*/\1/p' out)
 verified=$(grep -v "from B" out | grep -c " verified$")
 [ "$verified" -gt 0 ] || fail "a.off and b.off: no verified pair to draw"
 run "$phks" render a.off b.off -o v.png --size 600x450; expect_rc 0 "render"

@@ -95,6 +95,11 @@ phks_status phks__signature_layout(const phks__unit_mesh *um,
                                    phks_signature *sig);
 
 /* ---- verified matching (verify.c) */
+/* Vector distance per time scale at which a verified proposal's own
+ * affinity falls to 1/e: the logarithms of the local-area scaling differ
+ * by 0.15 where HKS A_t differs by about 16%. phks_similarity (score.c)
+ * reads a NEAREST score with the same width. */
+#define PHKS__VECTOR_SIGMA 0.15
 /* The verified correspondences of query a in entry b and the score
  * phks_score documents for PHKS_MATCHING_VERIFIED, given `nearest`, the
  * paper's score of a and b. pair_of[i] (a->count entries, may be NULL)

@@ -288,3 +288,66 @@ phks_status phks_score(const phks_signature *a, const phks_signature *b,
         return phks__fail(PHKS_ERROR_INVALID_ARGUMENT, "phks_score: NULL score");
     return phks_match(a, b, NULL, 0, NULL, score);
 }
+
+/* Q of docs/method.md section 14 read back from the two scores: score =
+ * nearest (1 - Q). Rounding may take the quotient a hair outside [0, 1]. */
+static double verified_share(double score, double nearest)
+{
+    if (nearest <= 0)
+        return 1;  /* identical vectors: nothing is left to explain */
+    double q = 1 - score / nearest;
+    return q < 0 ? 0 : q > 1 ? 1 : q;
+}
+
+/* exp(-(mean L1 distance per time scale) / PHKS__VECTOR_SIGMA): the mean
+ * is over the n_a + n_b nearest distances the score sums and the L
+ * entries of a vector, so a mean step of 0.15 costs a factor e, as a
+ * verified proposal's affinity (docs/method.md section 14, "What a score
+ * means"). */
+static double nearest_similarity(const phks_signature *a,
+                                 const phks_signature *b, double nearest)
+{
+    double terms = (double)(a->count + b->count) * (double)a->length;
+    if (nearest <= 0 || terms <= 0)
+        return 1;
+    return exp(-nearest / (terms * PHKS__VECTOR_SIGMA));
+}
+
+/* How many of a's features the verification paired (pair_of), beside the
+ * verified score. */
+static phks_status verified_count(const phks_signature *a,
+                                  const phks_signature *b, double nearest,
+                                  double *score, size_t *verified)
+{
+    uint32_t *pair_of = phks__malloc_array(a->count + 1, sizeof *pair_of);
+    if (!pair_of)
+        return phks__fail_oom("phks_similarity");
+    phks_status st = phks__verify(a, b, nearest, pair_of, score);
+    *verified = 0;
+    for (size_t i = 0; st == PHKS_OK && i < a->count; i++)
+        *verified += pair_of[i] != UINT32_MAX;
+    phks__free(pair_of);
+    return st;
+}
+
+phks_status phks_similarity(const phks_signature *query,
+                            const phks_signature *entry, double *similarity,
+                            size_t *verified)
+{
+    if (!similarity)
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
+                         "phks_similarity: NULL similarity");
+    phks_status st = check_pair(query, entry, "phks_similarity");
+    if (st != PHKS_OK)
+        return st;
+    double nearest = nearest_pairs(query, entry, NULL), score = nearest;
+    size_t paired = 0;
+    if (query->options.matching != PHKS_MATCHING_VERIFIED)
+        *similarity = nearest_similarity(query, entry, nearest);
+    else if ((st = verified_count(query, entry, nearest, &score, &paired)) ==
+             PHKS_OK)
+        *similarity = verified_share(score, nearest);
+    if (st == PHKS_OK && verified)
+        *verified = paired;
+    return st;
+}

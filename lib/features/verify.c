@@ -61,9 +61,9 @@ typedef struct proposal {
  * its 15 features. */
 #define CANDIDATES 6
 /* Vector distance at which a proposal's own affinity falls to 1/e, per
- * time scale: the logarithms of the local-area scaling differ by 0.15
- * where HKS A_t differs by about 16%. */
-#define VECTOR_SIGMA 0.15
+ * time scale (features.h says why 0.15; phks_similarity's NEAREST formula
+ * reads the same width). */
+#define VECTOR_SIGMA PHKS__VECTOR_SIGMA
 /* Relative disagreement of two distances at which a pair's affinity
  * falls to 1/e. A query's own distance may be longer: a cut or a scan
  * can only lengthen a path, so its excess counts half. */

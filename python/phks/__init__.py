@@ -45,6 +45,7 @@ from ._phks import (  # noqa: E402
     score,
     score_nearest,
     signature,
+    similarity,
     spectrum,
     status_string,
 )
@@ -56,5 +57,5 @@ __all__ = [
     "Mesh", "Signature", "Spectrum", "Stage", "Status", "decode",
     "default_options", "geodesic_distances", "library_version", "load",
     "load_memory", "match", "persistent_maxima", "score", "score_nearest",
-    "signature", "spectrum", "status_string",
+    "signature", "similarity", "spectrum", "status_string",
 ]

@@ -23,9 +23,40 @@ static PyStructSequence_Field hit_fields[] = {
     {"name", "name (cut at 255 bytes; Database.get has it whole)"},
     {"label", "class label, '' for none (cut at 255 bytes)"},
     {"score", "phks.score(query, entry)"},
+    {"similarity", "phks.similarity(query, entry)[0], in [0, 1] "
+                   "(attribute only)"},
+    {"verified", "how many of the query's features are verified in the "
+                 "entry: phks.similarity(query, entry)[1] (attribute only)"},
     {NULL, NULL}};
-static PyStructSequence_Desc hit_desc = {"phks.Hit", "A query hit.",
-                                         hit_fields, 4};
+static PyStructSequence_Desc hit_desc = {
+    "phks.Hit",
+    "A query hit: (id, name, label, score), with the attributes similarity "
+    "and verified.",
+    hit_fields, 4};
+
+/* What a reader weighs a hit's score by (phks_similarity). */
+typedef struct hit_weight {
+    double similarity;
+    size_t verified;
+} hit_weight;
+
+/* The weights of count hits of query: each entry read back and compared
+ * once more (as many verifications again as the query's re-ranking). */
+static phks_status weigh_hits(phks_db *db, const phks_signature *query,
+                              const phks_hit *hits, size_t count,
+                              hit_weight *w)
+{
+    phks_status st = PHKS_OK;
+    for (size_t i = 0; st == PHKS_OK && i < count; i++) {
+        phks_signature *entry = NULL;
+        st = phks_db_get(db, hits[i].id, &entry, NULL, 0, NULL, 0);
+        if (st == PHKS_OK)
+            st = phks_similarity(query, entry, &w[i].similarity,
+                                 &w[i].verified);
+        phks_signature_free(entry);
+    }
+    return st;
+}
 
 static PyStructSequence_Field entry_fields[] = {
     {"id", "entry id"},
@@ -332,15 +363,21 @@ static PyObject *Database_query(DatabaseObject *self, PyObject *args,
         return PyList_New(0);
     size_t room = (size_t)k < entries ? (size_t)k : entries;
     phks_hit *hits = PyMem_Malloc(room * sizeof *hits);
-    if (!hits)
+    hit_weight *w = hits ? PyMem_Malloc(room * sizeof *w) : NULL;
+    if (!w) {
+        PyMem_Free(hits);
         return PyErr_NoMemory();
+    }
     size_t count = 0;
     self->busy++;
     Py_BEGIN_ALLOW_THREADS
     st = phks_db_query(db, sig, room, hits, &count);
+    if (st == PHKS_OK)
+        st = weigh_hits(db, sig, hits, count, w);
     Py_END_ALLOW_THREADS
     self->busy--;
     if (st != PHKS_OK) {
+        PyMem_Free(w);
         PyMem_Free(hits);
         return raise_status(st);
     }
@@ -350,12 +387,21 @@ static PyObject *Database_query(DatabaseObject *self, PyObject *args,
                                text_of(hits[i].name), text_of(hits[i].label),
                                PyFloat_FromDouble(hits[i].score)};
         PyObject *hit = record_of(&HitType, fields);
-        if (!hit) {
+        PyObject *similarity = hit ? PyFloat_FromDouble(w[i].similarity)
+                                   : NULL;
+        PyObject *verified = similarity ? PyLong_FromSize_t(w[i].verified)
+                                        : NULL;
+        if (!verified) {
+            Py_XDECREF(similarity);
+            Py_XDECREF(hit);
             Py_CLEAR(list);
             break;
         }
+        PyStructSequence_SET_ITEM(hit, 4, similarity);
+        PyStructSequence_SET_ITEM(hit, 5, verified);
         PyList_SET_ITEM(list, (Py_ssize_t)i, hit);
     }
+    PyMem_Free(w);
     PyMem_Free(hits);
     return list;
 }
@@ -481,7 +527,8 @@ static PyMethodDef Database_methods[] = {
      METH_VARARGS | METH_KEYWORDS,
      "query(signature, k=10) -> [Hit, ...]: the k lowest scores, best "
      "first, ties to the lower id; with matching 'verified' among the "
-     "max(k, 32) entries of lowest score_nearest."},
+     "max(k, 32) entries of lowest score_nearest. Each Hit also has the "
+     "attributes similarity and verified (phks.similarity)."},
     {"list", (PyCFunction)Database_list, METH_NOARGS,
      "list() -> [id, ...], ascending."},
     {"get", (PyCFunction)Database_get, METH_O,

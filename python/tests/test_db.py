@@ -34,6 +34,11 @@ def test_roundtrip(tmp_path, shapes):
         for h in hits:
             sig = shapes[h.name]
             assert h.score == phks.score(shapes["s2"], sig)
+            assert (h.similarity, h.verified) == phks.similarity(
+                shapes["s2"], sig)
+            assert len(h) == 4  # the attributes are not items
+        assert hits[0].similarity == 1
+        assert hits[0].verified == len(shapes["s2"])
         assert [h.score for h in hits] == sorted(h.score for h in hits)
         labels = {h.name: h.label for h in db.query(shapes["s0"], k=100)}
         assert labels == {"s0": "blob", "s1": "blob", "s2": "", "s3": ""}

@@ -175,6 +175,12 @@ def test_nearest_score_and_match(creature_nearest, other_nearest):
     assert not m.verified.any()
     score, fa, fb, dist, from_a, verified = m  # a named tuple
     assert score == s
+    # Nothing is verified; the similarity is the NEAREST formula.
+    terms = (na + nb) * a.vectors.shape[1]
+    assert m.verified_count == 0
+    assert m.similarity == pytest.approx(np.exp(-s / (terms * 0.15)),
+                                         rel=1e-14)
+    assert phks.similarity(a, a) == (1.0, 0)
 
 
 def test_score_nearest_is_the_papers_formula(creature_signature,
@@ -374,3 +380,18 @@ def test_a_shared_real_mesh(shared_meshes):
     assert len(from_file) == 15
     np.testing.assert_array_equal(v[from_file.vertices], from_file.positions)
     assert phks.score(from_file, from_arrays) == 0
+
+
+def test_similarity_reads_the_score(creature_signature, other_signature):
+    a, b = creature_signature, other_signature
+    assert phks.similarity(a, a) == (1.0, len(a))
+    sim, verified = phks.similarity(a, b)
+    # Q of the score: score = score_nearest (1 - Q).
+    q = 1 - phks.score(a, b) / phks.score_nearest(a, b)
+    assert 0 < sim < 1 and sim == pytest.approx(q, rel=1e-12)
+    m = phks.match(a, b)
+    assert (m.similarity, m.verified_count) == (sim, verified)
+    assert verified == int(m.verified[:len(a)].sum())
+    assert len(m) == 6  # the attributes are not items
+    with pytest.raises(TypeError):
+        phks.similarity(a, None)

@@ -298,7 +298,8 @@ static FILE *open_queries_out(const char *path)
     if (path && !f)
         cli_error(path, strerror(errno));
     else if (f)
-        fprintf(f, "file\tkind\tseed\tclass\trank\ttop1_label\n");
+        fprintf(f, "file\tkind\tseed\tclass\trank\ttop1_label\ttop1_score\t"
+                   "top1_similarity\ttop1_verified\tfeatures\n");
     return f;
 }
 

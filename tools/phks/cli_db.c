@@ -35,20 +35,48 @@ static const char db_usage[] =
     "  phks db remove DB ID...\n"
     "  `phks db SUBCOMMAND --help` tells more";
 
-static void print_hits(const phks_hit *hits, size_t count, int json)
+/* What a reader weighs a hit's score by (phks_similarity of the query
+ * against the hit's stored signature). */
+typedef struct weight {
+    double similarity;
+    size_t verified;
+} weight;
+
+/* The weights of the count hits: one phks_db_get and one phks_similarity
+ * each, as many verifications again as the query's re-ranking made. */
+static phks_status weigh_hits(phks_db *db, const phks_signature *query,
+                              const phks_hit *hits, size_t count, weight *w)
+{
+    phks_status st = PHKS_OK;
+    for (size_t i = 0; st == PHKS_OK && i < count; i++) {
+        phks_signature *entry = NULL;
+        st = phks_db_get(db, hits[i].id, &entry, NULL, 0, NULL, 0);
+        if (st == PHKS_OK)
+            st = phks_similarity(query, entry, &w[i].similarity,
+                                 &w[i].verified);
+        phks_signature_free(entry);
+    }
+    return st;
+}
+
+static void print_hits(const phks_hit *hits, const weight *w, size_t count,
+                       size_t features, int json)
 {
     if (!json) {
-        printf("%4s %8s %14s  %-16s %s\n", "rank", "id", "score", "label",
-               "name");
+        printf("%4s %8s %14s %10s %8s  %-16s %s\n", "rank", "id", "score",
+               "similarity", "verified", "label", "name");
         for (size_t i = 0; i < count; i++)
-            printf("%4zu %8" PRId64 " %14.6g  %-16s %s\n", i + 1, hits[i].id,
-                   hits[i].score, hits[i].label, hits[i].name);
+            printf("%4zu %8" PRId64 " %14.6g %10.3f %5zu/%-2zu  %-16s %s\n",
+                   i + 1, hits[i].id, hits[i].score, w[i].similarity,
+                   w[i].verified, features, hits[i].label, hits[i].name);
         return;
     }
     printf("[");
     for (size_t i = 0; i < count; i++) {
         printf("%s\n  {\"rank\": %zu, \"id\": %" PRId64 ", \"score\": %.17g, "
-               "\"label\": ", i ? "," : "", i + 1, hits[i].id, hits[i].score);
+               "\"similarity\": %.17g, \"verified\": %zu, \"features\": %zu, "
+               "\"label\": ", i ? "," : "", i + 1, hits[i].id, hits[i].score,
+               w[i].similarity, w[i].verified, features);
         cli_json_string(hits[i].label);
         printf(", \"name\": ");
         cli_json_string(hits[i].name);
@@ -91,21 +119,25 @@ static int db_query(int argc, char **argv, const phks_options *defaults)
     }
     phks_signature *query = cli_signature_of(argv[2], &options);
     phks_hit *hits = query ? malloc(k * sizeof *hits) : NULL;
+    weight *w = hits ? malloc(k * sizeof *w) : NULL;
     size_t count = 0;
     int rc = 1;
-    if (query && !hits)
+    if (query && (!hits || !w))
         cli_error(argv[1], "out of memory");
-    else if (hits && (st = phks_db_query(db, query, k, hits, &count)) != PHKS_OK) {
+    else if (w && (st = phks_db_query(db, query, k, hits, &count)) != PHKS_OK) {
         /* A .sig made with other options: that file is the one to blame. */
         if (st == PHKS_ERROR_INCOMPATIBLE)
             cli_say_db_fail(db, argv[2], query, st);
         else
             cli_fail(argv[1], st);
     }
-    else if (hits) {
-        print_hits(hits, count, json);
+    else if (w && (st = weigh_hits(db, query, hits, count, w)) != PHKS_OK)
+        cli_fail(argv[1], st);
+    else if (w) {
+        print_hits(hits, w, count, phks_signature_feature_count(query), json);
         rc = png ? cli_sheet_write(png, db, argv[2], query, hits, count) : 0;
     }
+    free(w);
     free(hits);
     phks_signature_free(query);
     phks_db_close(db);

@@ -134,9 +134,15 @@ typedef struct side {
     phks_mesh *mesh;
 } side;
 
+/* The score and what a reader weighs it by (phks_similarity). */
+typedef struct verdict {
+    double score, similarity;
+    size_t verified, features; /* of A's features, the verified */
+} verdict;
+
 static void json_match(const side *a, const side *b,
                        const phks_correspondence *c, size_t count,
-                       double score)
+                       const verdict *v)
 {
     fputs("{\"a\": ", stdout);
     cli_json_string(a->path);
@@ -145,7 +151,11 @@ static void json_match(const side *a, const side *b,
     printf(", \"vertex_ids_a\": \"%s\", \"vertex_ids_b\": \"%s\",\n"
            "  \"score\": ", a->mesh ? "file" : "cleaned",
            b->mesh ? "file" : "cleaned");
-    cli_json_number(score);
+    cli_json_number(v->score);
+    fputs(", \"similarity\": ", stdout);
+    cli_json_number(v->similarity);
+    printf(", \"verified\": %zu, \"features\": %zu", v->verified,
+           v->features);
     fputs(",\n  \"correspondences\": [", stdout);
     for (size_t i = 0; i < count; i++) {
         double pa[3], pb[3];
@@ -172,9 +182,10 @@ static void json_match(const side *a, const side *b,
 
 static void text_match(const side *a, const side *b,
                        const phks_correspondence *c, size_t count,
-                       double score)
+                       const verdict *v)
 {
-    printf("score %.6g\n", score);
+    printf("score %.6g  similarity %.3f  verified %zu of %zu\n", v->score,
+           v->similarity, v->verified, v->features);
     printf("%-6s %-6s %8s %8s %12s  %-32s %-32s\n", "a", "b", "vertex A",
            "vertex B", "L1", "position in A", "position in B");
     /* "verified": the pair is one of the set the score verified. */
@@ -215,22 +226,24 @@ static int print_match(const side *a, const side *b, const char *what,
                        int json)
 {
     size_t count;
-    double score;
-    phks_status st = phks_match(a->sig, b->sig, NULL, 0, &count, &score);
+    verdict v = {0, 0, 0, phks_signature_feature_count(a->sig)};
+    phks_status st = phks_match(a->sig, b->sig, NULL, 0, &count, &v.score);
     phks_correspondence *c = st == PHKS_OK ? malloc(count * sizeof *c) : NULL;
     if (st == PHKS_OK && !c)
         st = PHKS_ERROR_OUT_OF_MEMORY;
     if (st == PHKS_OK)
-        st = phks_match(a->sig, b->sig, c, count, &count, &score);
+        st = phks_match(a->sig, b->sig, c, count, &count, &v.score);
+    if (st == PHKS_OK)
+        st = phks_similarity(a->sig, b->sig, &v.similarity, &v.verified);
     if (st != PHKS_OK) {
         free(c);
         return st == PHKS_ERROR_INCOMPATIBLE ? incompatible(a, b, what, st)
                                              : cli_fail(what, st);
     }
     if (json)
-        json_match(a, b, c, count, score);
+        json_match(a, b, c, count, &v);
     else
-        text_match(a, b, c, count, score);
+        text_match(a, b, c, count, &v);
     free(c);
     return 0;
 }

@@ -62,6 +62,27 @@ void bench_tally_rank(bench_tally *t, int kind, size_t rank)
         t->top[kind][k] += rank && rank <= top_k[k];
 }
 
+/* The best hit's score, similarity and verified share as the last four
+ * columns of a --queries-out line: what docs/retrieval.md's "What a score
+ * means" reads. Empty with --descriptor evd (no signatures compared) or
+ * no hit. */
+static void write_top1(const bench_plan *p, phks_db *db,
+                       const bench_item *it, const phks_hit *hits,
+                       size_t count, FILE *out)
+{
+    phks_signature *entry = NULL;
+    double similarity;
+    size_t verified;
+    if (count && !p->evd &&
+        phks_db_get(db, hits[0].id, &entry, NULL, 0, NULL, 0) == PHKS_OK &&
+        phks_similarity(it->sig, entry, &similarity, &verified) == PHKS_OK)
+        fprintf(out, "\t%.9g\t%.6f\t%zu\t%zu\n", hits[0].score, similarity,
+                verified, phks_signature_feature_count(it->sig));
+    else
+        fputs("\t\t\t\t\n", out);
+    phks_signature_free(entry);
+}
+
 /* Runs one query and counts it into t, a tally of its own. */
 static void run_query(const bench_plan *p, phks_db *db,
                       const bench_evd_db *evd, size_t m, int kind,
@@ -78,7 +99,7 @@ static void run_query(const bench_plan *p, phks_db *db,
     if (st != PHKS_OK) {
         t->failed[kind]++;
         if (out)
-            fprintf(out, "%s\t%s\t%u\t%s\t-1\t\n", row->file,
+            fprintf(out, "%s\t%s\t%u\t%s\t-1\t\t\t\t\t\n", row->file,
                     bench_kind_name[kind], seed, row->cls);
         return;
     }
@@ -91,10 +112,12 @@ static void run_query(const bench_plan *p, phks_db *db,
         t->vertices[kind] += it->vertices;
         t->vertices_near_cut[kind] += it->vertices_near_cut;
     }
-    if (out)
-        fprintf(out, "%s\t%s\t%u\t%s\t%zu\t%s\n", row->file,
+    if (out) {
+        fprintf(out, "%s\t%s\t%u\t%s\t%zu\t%s", row->file,
                 bench_kind_name[kind], seed, row->cls, rank,
                 count ? hits[0].label : "");
+        write_top1(p, db, it, hits, count, out);
+    }
 }
 
 int bench_score_seed(const bench_plan *plan, unsigned seed, bench_tally *tally,
