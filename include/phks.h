@@ -1056,6 +1056,17 @@ PHKS_API phks_status phks_db_get(phks_db *db, int64_t id,
                                  size_t name_capacity, char *label,
                                  size_t label_capacity);
 
+/* phks_similarity of query against entry id (a hit of phks_db_query, say),
+ * into *similarity and *verified (may be NULL): what a tool shows beside
+ * each hit's score. Reads the entry back, so it costs a phks_db_get and a
+ * phks_score. Errors as phks_db_get and phks_similarity (a query whose
+ * options differ from the database's: PHKS_ERROR_INCOMPATIBLE). Since
+ * 0.3.0. */
+PHKS_API phks_status phks_db_similarity(phks_db *db,
+                                        const phks_signature *query,
+                                        int64_t id, double *similarity,
+                                        size_t *verified);
+
 /* The longest name or label a hit carries in full; longer ones are cut at
  * a UTF-8 character boundary (phks_db_get returns them whole). */
 #define PHKS_DB_TEXT_MAX 255

@@ -3,7 +3,8 @@
  * signature against itself, strictly between 0 and 1 for two creatures of
  * different kinds, Q read back from phks_score and phks_score_nearest and
  * the verified count from phks_match, the NEAREST formula worked by hand,
- * and the refusals. */
+ * the refusals, and phks_db_similarity: the same numbers for an entry read
+ * back from a database. */
 #include "shapes.h"
 #include "testutil.h"
 
@@ -127,6 +128,37 @@ START_TEST(refusals)
 }
 END_TEST
 
+START_TEST(database_entry_gives_the_same)
+{
+    phks_signature *a = creature(SHAPE_QUADRUPED, PHKS_MATCHING_VERIFIED);
+    phks_signature *b = creature(SHAPE_HUMANOID, PHKS_MATCHING_VERIFIED);
+    phks_db *db;
+    ck_assert_int_eq(phks_db_open(":memory:", 0, &db), PHKS_OK);
+    int64_t id;
+    ck_assert_int_eq(phks_db_add(db, "b", NULL, b, &id), PHKS_OK);
+    double want, got = -1;
+    size_t want_verified, got_verified = 99;
+    ck_assert_int_eq(phks_similarity(a, b, &want, &want_verified), PHKS_OK);
+    ck_assert_int_eq(phks_db_similarity(db, a, id, &got, &got_verified),
+                     PHKS_OK);
+    /* The stored blob keeps the layout as floats, as b's own samples
+     * are: the same numbers. */
+    ck_assert(got == want);
+    ck_assert_uint_eq(got_verified, want_verified);
+    ck_assert_int_eq(phks_db_similarity(db, a, id + 1, &got, NULL),
+                     PHKS_ERROR_INVALID_ARGUMENT);
+    ck_assert_int_eq(phks_db_similarity(NULL, a, id, &got, NULL),
+                     PHKS_ERROR_INVALID_ARGUMENT);
+    ck_assert_int_eq(phks_db_similarity(db, NULL, id, &got, NULL),
+                     PHKS_ERROR_INVALID_ARGUMENT);
+    ck_assert_int_eq(phks_db_similarity(db, a, id, NULL, NULL),
+                     PHKS_ERROR_INVALID_ARGUMENT);
+    phks_db_close(db);
+    phks_signature_free(a);
+    phks_signature_free(b);
+}
+END_TEST
+
 int main(void)
 {
     Suite *s = suite_create("similarity");
@@ -136,6 +168,7 @@ int main(void)
     tcase_add_test(c, two_kinds_lie_between);
     tcase_add_test(c, nearest_follows_its_formula);
     tcase_add_test(c, refusals);
+    tcase_add_test(c, database_entry_gives_the_same);
     suite_add_tcase(s, c);
     return run_suite(s);
 }

@@ -216,6 +216,21 @@ phks_status phks_db_get(phks_db *db, int64_t id, phks_signature **signature,
     return get_entry(db, id, signature, &n, &l);
 }
 
+phks_status phks_db_similarity(phks_db *db, const phks_signature *query,
+                               int64_t id, double *similarity,
+                               size_t *verified)
+{
+    if (!db || !query || !similarity)
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
+                          "phks_db_similarity: NULL argument");
+    phks_signature *entry;
+    phks_status st = phks__db_get_signature(db, id, &entry);
+    if (st == PHKS_OK)
+        st = phks_similarity(query, entry, similarity, verified);
+    phks_signature_free(entry);
+    return st;
+}
+
 phks_status phks__db_get_signature(phks_db *db, int64_t id,
                                    phks_signature **signature)
 {

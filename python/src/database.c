@@ -47,14 +47,9 @@ static phks_status weigh_hits(phks_db *db, const phks_signature *query,
                               hit_weight *w)
 {
     phks_status st = PHKS_OK;
-    for (size_t i = 0; st == PHKS_OK && i < count; i++) {
-        phks_signature *entry = NULL;
-        st = phks_db_get(db, hits[i].id, &entry, NULL, 0, NULL, 0);
-        if (st == PHKS_OK)
-            st = phks_similarity(query, entry, &w[i].similarity,
-                                 &w[i].verified);
-        phks_signature_free(entry);
-    }
+    for (size_t i = 0; st == PHKS_OK && i < count; i++)
+        st = phks_db_similarity(db, query, hits[i].id, &w[i].similarity,
+                                &w[i].verified);
     return st;
 }
 

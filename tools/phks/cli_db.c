@@ -42,20 +42,15 @@ typedef struct weight {
     size_t verified;
 } weight;
 
-/* The weights of the count hits: one phks_db_get and one phks_similarity
- * each, as many verifications again as the query's re-ranking made. */
+/* The weights of the count hits: one phks_db_similarity each, as many
+ * verifications again as the query's re-ranking made. */
 static phks_status weigh_hits(phks_db *db, const phks_signature *query,
                               const phks_hit *hits, size_t count, weight *w)
 {
     phks_status st = PHKS_OK;
-    for (size_t i = 0; st == PHKS_OK && i < count; i++) {
-        phks_signature *entry = NULL;
-        st = phks_db_get(db, hits[i].id, &entry, NULL, 0, NULL, 0);
-        if (st == PHKS_OK)
-            st = phks_similarity(query, entry, &w[i].similarity,
-                                 &w[i].verified);
-        phks_signature_free(entry);
-    }
+    for (size_t i = 0; st == PHKS_OK && i < count; i++)
+        st = phks_db_similarity(db, query, hits[i].id, &w[i].similarity,
+                                &w[i].verified);
     return st;
 }
 
