@@ -780,8 +780,11 @@ static double best_affinity(phks__verifier *c, uint32_t *pair_of)
      (c)->sum, (c)->last, (c)->weight_sum, (c)->dist, (c)->ga,              \
      (c)->gb, (c)->gb_scaled, (c)->p, (c)->pair, (c)->pair_ga,              \
      (c)->pair_gb, (c)->pair_e, (c)->matrix, (c)->x, (c)->y, (c)->order,    \
-     (c)->set, (c)->trial, (c)->dist_image, (c)->sa, (c)->sb, (c)->sb_scaled,                \
-     (c)->pair_sa, (c)->pair_sb, (c)->ia, (c)->ib, (c)->image_distance}
+     (c)->set, (c)->trial, SPIN_OWNED(c)}
+/* ... of which these, last, only with spin images (NULL without). */
+#define SPIN_OWNED(c)                                                       \
+    (c)->dist_image, (c)->sa, (c)->sb, (c)->sb_scaled, (c)->pair_sa,        \
+        (c)->pair_sb, (c)->ia, (c)->ib, (c)->image_distance
 
 void phks__verifier_free(phks__verifier *c)
 {
@@ -798,7 +801,10 @@ void phks__verifier_free(phks__verifier *c)
 static bool allocate(phks__verifier *c, size_t nb)
 {
     size_t na = c->na, L = c->length;
-    size_t most = 2 * na * (nb < CANDIDATES ? nb : CANDIDATES) + 1;
+    bool spin = c->a->spin;
+    /* With images a feature proposes by both descriptors: twice as many. */
+    size_t per = (nb < CANDIDATES ? nb : CANDIDATES) * (spin ? 2 : 1);
+    size_t most = na * per + 1;
     c->va = phks__malloc_array(na, L * sizeof *c->va);
     c->vb = phks__malloc_array(nb, L * sizeof *c->vb);
     c->wa = phks__malloc_array(na, L * sizeof *c->wa);
@@ -824,22 +830,22 @@ static bool allocate(phks__verifier *c, size_t nb)
     c->order = phks__malloc_array(most, sizeof *c->order);
     c->set = phks__malloc_array(most, sizeof *c->set);
     c->trial = phks__malloc_array(na + 1, sizeof *c->trial);
-    c->sa = phks__malloc_array(na, na * sizeof *c->sa);
-    c->dist_image = phks__malloc_array(na, nb * sizeof *c->dist_image);
-    c->sb = phks__malloc_array(nb, nb * sizeof *c->sb);
-    c->sb_scaled = phks__malloc_array(nb, nb * sizeof *c->sb_scaled);
-    c->pair_sa = phks__malloc_array(most, most / 2 * sizeof *c->pair_sa);
-    c->pair_sb = phks__malloc_array(most, most / 2 * sizeof *c->pair_sb);
-    if (c->a->spin) {
+    if (spin) {
         size_t R = PHKS__SPIN_RADII;
+        c->dist_image = phks__malloc_array(na, nb * sizeof *c->dist_image);
+        c->sa = phks__malloc_array(na, na * sizeof *c->sa);
+        c->sb = phks__malloc_array(nb, nb * sizeof *c->sb);
+        c->sb_scaled = phks__malloc_array(nb, nb * sizeof *c->sb_scaled);
+        c->pair_sa = phks__malloc_array(most, most / 2 * sizeof *c->pair_sa);
+        c->pair_sb = phks__malloc_array(most, most / 2 * sizeof *c->pair_sb);
         c->ia = phks__malloc_array(na + 1, PHKS__SPIN_BYTES * sizeof *c->ia);
         c->ib = phks__malloc_array(nb + 1, PHKS__SPIN_BYTES * sizeof *c->ib);
         c->image_distance = phks__malloc_array(
             (na + 1) * (nb + 1), R * R * sizeof *c->image_distance);
     }
-    /* The images' arrays, last in OWNED, stay NULL without images. */
-    void *owned[] = OWNED(c);
-    size_t needed = sizeof owned / sizeof owned[0] - (c->a->spin ? 0 : 3);
+    void *owned[] = OWNED(c), *spin_owned[] = {SPIN_OWNED(c)};
+    size_t needed = sizeof owned / sizeof owned[0] -
+                    (spin ? 0 : sizeof spin_owned / sizeof spin_owned[0]);
     for (size_t k = 0; k < needed; k++)
         if (!owned[k])
             return false;
@@ -865,10 +871,10 @@ phks_status phks__verifier_new(const phks_signature *a, size_t points,
     compared_vectors(a, c->na, c->va);
     boundary_weights(a, c->na, c->wa);
     square_distances(a, c->na, c->ga);
-    if (a->unit_scale > 0)
+    if (a->spin) {
         straight_distances(a, c->na, c->sa);
-    if (a->spin)
         unit_images(a, c->na, c->ia);
+    }
     *out = c;
     return PHKS_OK;
 }

@@ -355,13 +355,15 @@ static size_t bin_of(double x, size_t bins)
 static void images(const pieces *ps, const double n[3], uint8_t *out)
 {
     double bins[PHKS__SPIN_RADII][PHKS__SPIN_IMAGE] = {{0}};
-    double total[PHKS__SPIN_RADII] = {0};
+    double total[PHKS__SPIN_RADII] = {0}, radii[PHKS__SPIN_RADII];
+    for (int r = 0; r < PHKS__SPIN_RADII; r++)
+        radii[r] = PHKS__SPIN_RADIUS * exp2(r / 2.0);
     for (size_t k = 0; k < ps->count; k++) {
         const piece *p = ps->p + k;
         double d2 = dot3(p->at, p->at), beta = dot3(p->at, n);
         double alpha = sqrt(fmax(d2 - beta * beta, 0));
         for (int r = 0; r < PHKS__SPIN_RADII; r++) {
-            double radius = PHKS__SPIN_RADIUS * exp2(r / 2.0);
+            double radius = radii[r];
             if (d2 > radius * radius)
                 continue;
             size_t i = bin_of(alpha / radius, PHKS__SPIN_ALPHA);
