@@ -264,6 +264,24 @@ typedef enum phks_local_descriptor {
     PHKS_LOCAL_DESCRIPTOR_SPIN = 1
 } phks_local_descriptor;
 
+/* A description of the whole shape beside the feature points, which
+ * PHKS_MATCHING_VERIFIED multiplies into its score. Since 0.3.0. */
+typedef enum phks_global_descriptor {
+    /* None: the score is the feature points' alone, as 0.2.0's. */
+    PHKS_GLOBAL_DESCRIPTOR_NONE = 0,
+    /* The shape distribution D2 (Osada, Funkhouser, Chazelle and Dobkin
+     * 2002): the histogram of straight-line distances between points
+     * spread over the surface by area, in units of their mean, so that
+     * neither scale, pose in space nor triangulation changes it. Rigid
+     * and global: it tells rigid parts apart by their overall proportions
+     * (a catalogue of CAD parts), and changes with an articulated shape's
+     * pose and with a cut. The verified score is multiplied by the
+     * distributions' Hellinger distance plus the distance two samplings
+     * of one surface keep (docs/method.md section 16). 32 more bytes in a
+     * blob. */
+    PHKS_GLOBAL_DESCRIPTOR_D2 = 1
+} phks_global_descriptor;
+
 typedef enum phks_solver {
     /* Dense LAPACK for small meshes, block Lanczos above. */
     PHKS_SOLVER_AUTO = 0,
@@ -374,7 +392,13 @@ typedef struct phks_options {
                                 correspondences VERIFIED checks: HEAT
                                 (SPIN is measured in docs/retrieval.md,
                                 "Spin images"). Ignored with NEAREST     */
-    uint64_t reserved[20];   /* zero; room for fields of later versions  */
+    int32_t global_descriptor; /* phks_global_descriptor: a term of the
+                                whole shape in the verified score: NONE
+                                (D2 is measured in docs/retrieval.md,
+                                "Shape distributions"). Ignored with
+                                NEAREST                                  */
+    uint32_t reserved_pad;   /* zero                                     */
+    uint64_t reserved[19];   /* zero; room for fields of later versions  */
 } phks_options;
 
 /* Fills *options with the defaults above. Thread-safe. Returns

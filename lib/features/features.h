@@ -49,6 +49,9 @@ struct phks_signature {
     uint8_t *spin;         /* VERIFIED with PHKS_LOCAL_DESCRIPTOR_SPIN:
                               points x PHKS__SPIN_BYTES, each point's
                               spin images (geometry.h); NULL otherwise  */
+    bool has_shape;        /* VERIFIED with PHKS_GLOBAL_DESCRIPTOR_D2     */
+    uint8_t shape[PHKS__SHAPE_BINS]; /* then its shape distribution
+                              (geometry.h)                               */
 };
 
 /* Features and samples. */

@@ -234,6 +234,20 @@ phks_status phks__spin_images(const phks__unit_mesh *um,
                               const uint32_t *vertices, size_t count,
                               uint8_t *out);
 
+/* ---- the shape distribution D2 (shape_distribution.c) */
+/* The histogram of the straight-line distances between every pair of
+ * PHKS__SHAPE_POINTS points spread over the surface by area
+ * (docs/method.md section 16), in units of their mean, over
+ * [0, PHKS__SHAPE_RANGE) in PHKS__SHAPE_BINS bins (longer ones in the
+ * last), each bin's share of the pairs stored as round(255 sqrt(share)),
+ * so that two histograms' distance is Hellinger's as the spin images'. */
+#define PHKS__SHAPE_BINS 32
+#define PHKS__SHAPE_RANGE 3.0
+#define PHKS__SHAPE_POINTS 2048
+/* um->mesh's distribution into out. Fails only for want of memory. */
+phks_status phks__shape_distribution(const phks__unit_mesh *um,
+                                     uint8_t out[PHKS__SHAPE_BINS]);
+
 /* ---- boundary proximity (boundary.c) */
 /* distance[v] = straight-line distance from vertex v to the nearest vertex
  * on a boundary edge, in the unit box of um, capped at cap (cap > 0; all
