@@ -103,6 +103,11 @@ phks_status phks__signature_layout(const phks__unit_mesh *um,
  * by 0.15 where HKS A_t differs by about 16%. phks_similarity (score.c)
  * reads a NEAREST score with the same width. */
 #define PHKS__VECTOR_SIGMA 0.15
+/* What the verified score of a and b is multiplied by for their whole
+ * shapes: their shape distributions' Hellinger distance plus the floor
+ * sampling leaves (docs/method.md section 16) when both carry one
+ * (PHKS_GLOBAL_DESCRIPTOR_D2), 1 otherwise. */
+double phks__global_factor(const phks_signature *a, const phks_signature *b);
 /* The verified correspondences of query a in entry b and the score
  * phks_score documents for PHKS_MATCHING_VERIFIED, given `nearest`, the
  * paper's score of a and b. pair_of[i] (a->count entries, may be NULL)

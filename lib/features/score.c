@@ -290,7 +290,9 @@ phks_status phks_score(const phks_signature *a, const phks_signature *b,
 }
 
 /* Q of docs/method.md section 14 read back from the two scores: score =
- * nearest (1 - Q). Rounding may take the quotient a hair outside [0, 1]. */
+ * nearest (1 - Q), the score taken without its global factor (the share
+ * is the feature points'). Rounding may take the quotient a hair outside
+ * [0, 1]. */
 static double verified_share(double score, double nearest)
 {
     if (nearest <= 0)
@@ -346,7 +348,8 @@ phks_status phks_similarity(const phks_signature *query,
         *similarity = nearest_similarity(query, entry, nearest);
     else if ((st = verified_count(query, entry, nearest, &score, &paired)) ==
              PHKS_OK)
-        *similarity = verified_share(score, nearest);
+        *similarity = verified_share(score / phks__global_factor(query, entry),
+                                     nearest);
     if (st == PHKS_OK && verified)
         *verified = paired;
     return st;

@@ -303,6 +303,10 @@ static phks_status signature_of(const phks__unit_mesh *um,
     if (st == PHKS_OK && sig->spin)
         st = phks__spin_images(um, sig->vertex, phks__signature_points(sig),
                                sig->spin);
+    sig->has_shape = verified && opt->global_descriptor ==
+                                     PHKS_GLOBAL_DESCRIPTOR_D2;
+    if (st == PHKS_OK && sig->has_shape)
+        st = phks__shape_distribution(um, sig->shape);
     if (st == PHKS_OK)
         st = phks__progress(opt, PHKS_STAGE_PERSISTENCE, 1);
     if (st != PHKS_OK) {

@@ -229,6 +229,24 @@ static double verified_score(double nearest, double best, size_t features)
     return nearest * (1 - fmin(best / (n * n), 1));
 }
 
+/* The Hellinger distance two shape distributions of one surface keep
+ * from where their points fall alone (docs/method.md section 16): the
+ * least the global factor below can be, so that two shapes of the same
+ * proportions are told apart by their points, not by sampling noise. */
+#define SHAPE_FLOOR 0.01
+
+double phks__global_factor(const phks_signature *a, const phks_signature *b)
+{
+    if (!a->has_shape || !b->has_shape)
+        return 1;
+    double sum = 0;
+    for (size_t k = 0; k < PHKS__SHAPE_BINS; k++) {
+        double d = ((double)a->shape[k] - (double)b->shape[k]) / 255;
+        sum += d * d;
+    }
+    return SHAPE_FLOOR + sqrt(sum / 2);
+}
+
 /* ---- Finding the verified set */
 
 /* A pair of proposals p < q. */
@@ -903,7 +921,8 @@ void phks__verifier_run(phks__verifier *c, const phks_signature *b,
         unit_images(b, c->nb, c->ib);
         image_distances(c);
     }
-    *score = verified_score(nearest, best_affinity(c, pair_of), c->na);
+    *score = verified_score(nearest, best_affinity(c, pair_of), c->na) *
+             phks__global_factor(c->a, b);
 }
 
 phks_status phks__verify(const phks_signature *a, const phks_signature *b,
