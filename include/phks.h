@@ -972,6 +972,37 @@ PHKS_API phks_status phks_similarity(const phks_signature *query,
                                      const phks_signature *entry,
                                      double *similarity, size_t *verified);
 
+/* One point of an entry that a query's feature resembles: its index in
+ * the entry (features first, then samples, as phks_correspondence's
+ * feature_b numbers them) and the affinity of the two descriptions, in
+ * (0, 1], 1 for equal ones. Since 0.3.0. */
+typedef struct phks_candidate {
+    uint32_t point;
+    double affinity;
+} phks_candidate;
+
+/* What PHKS_MATCHING_VERIFIED proposes for feature `feature` of a before
+ * any geometry is checked: the (up to) k points of b whose local
+ * descriptions are nearest to it, most alike first (the lower index on
+ * ties), into out, and how many into *count (fewer than k only when b has
+ * fewer points or none is alike at all).
+ *
+ * The description is options.local_descriptor's: with HEAT the feature
+ * vectors' steps, exp(-D / (0.15 L)) (docs/method.md section 14); with
+ * SPIN the better of that and the spin images', exp(-D_image / 0.1)
+ * (section 15). Each point's affinity is its best over the scales of a's
+ * unit box against b's that the verification tries (2^(k/4), |k| <= 4).
+ * How often a true counterpart is among them is measured in
+ * docs/retrieval.md ("Descriptor recall").
+ *
+ * Errors: PHKS_ERROR_INVALID_ARGUMENT (a NULL argument, feature out of
+ * range, k = 0, or signatures not made with PHKS_MATCHING_VERIFIED),
+ * PHKS_ERROR_INCOMPATIBLE (different options), PHKS_ERROR_OUT_OF_MEMORY.
+ * Thread-safe. */
+PHKS_API phks_status phks_candidates(const phks_signature *a, size_t feature,
+                                     const phks_signature *b, size_t k,
+                                     phks_candidate *out, size_t *count);
+
 /* =====================================================================
  * Shape databases
  * =====================================================================

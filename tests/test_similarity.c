@@ -4,7 +4,10 @@
  * different kinds, Q read back from phks_score and phks_score_nearest and
  * the verified count from phks_match, the NEAREST formula worked by hand,
  * the refusals, and phks_db_similarity: the same numbers for an entry read
- * back from a database. */
+ * back from a database. And phks_candidates, what the verification
+ * proposes: a feature's own point first at affinity 1 against itself, and
+ * against another shape at least the affinity of the vectors' steps at
+ * the unit scale, worked here from the public vectors. */
 #include "shapes.h"
 #include "testutil.h"
 
@@ -159,6 +162,96 @@ START_TEST(database_entry_gives_the_same)
 }
 END_TEST
 
+START_TEST(candidates_of_itself_start_with_the_feature)
+{
+    phks_signature *a = creature(SHAPE_QUADRUPED, PHKS_MATCHING_VERIFIED);
+    phks_candidate c[5];
+    for (size_t i = 0; i < phks_signature_feature_count(a); i++) {
+        size_t count = 0;
+        ck_assert_int_eq(phks_candidates(a, i, a, 5, c, &count), PHKS_OK);
+        ck_assert_uint_eq(count, 5);
+        ck_assert_uint_eq(c[0].point, i);
+        ck_assert(c[0].affinity == 1.0);
+        for (size_t r = 1; r < count; r++)
+            ck_assert(c[r].affinity <= c[r - 1].affinity &&
+                      c[r].affinity > 0 && c[r].point != i);
+    }
+    phks_signature_free(a);
+}
+END_TEST
+
+/* The affinity the verifier gives feature i of a and point j of b at the
+ * unit scale, from the public vectors: the L1 distance of their steps
+ * from one time scale to the next, scaled to the vector's length L,
+ * through exp(-D / (0.15 L)) (docs/method.md section 14). The creatures
+ * are closed: no boundary weighs a step down. */
+static double unit_scale_affinity(const phks_signature *a, size_t i,
+                                  const phks_signature *b, size_t j)
+{
+    size_t L = phks_signature_vector_length(a);
+    const double *x = phks_signature_feature_vector(a, i);
+    const double *y = phks_signature_feature_vector(b, j);
+    double sum = 0;
+    for (size_t k = 1; k < L; k++)
+        sum += fabs((x[k] - x[k - 1]) - (y[k] - y[k - 1]));
+    double distance = sum / (double)(L - 1) * (double)L;
+    return exp(-distance / (0.15 * (double)L));
+}
+
+START_TEST(candidates_are_at_least_the_unit_scale_best)
+{
+    phks_signature *a = creature(SHAPE_QUADRUPED, PHKS_MATCHING_VERIFIED);
+    phks_signature *b = creature(SHAPE_HUMANOID, PHKS_MATCHING_VERIFIED);
+    size_t points = phks_signature_feature_count(b) +
+                    phks_signature_sample_count(b);
+    for (size_t i = 0; i < phks_signature_feature_count(a); i++) {
+        phks_candidate c[3];
+        size_t count = 0;
+        ck_assert_int_eq(phks_candidates(a, i, b, 3, c, &count), PHKS_OK);
+        ck_assert_uint_eq(count, 3);
+        double most = 0;
+        for (size_t j = 0; j < points; j++)
+            most = fmax(most, unit_scale_affinity(a, i, b, j));
+        ck_assert_msg(c[0].affinity >= most * (1 - 1e-12),
+                      "feature %zu: best %.6f, unit scale alone %.6f", i,
+                      c[0].affinity, most);
+        for (size_t r = 0; r < count; r++)
+            ck_assert(c[r].affinity >= unit_scale_affinity(a, i, b,
+                                                           c[r].point) *
+                                           (1 - 1e-12));
+    }
+    phks_signature_free(a);
+    phks_signature_free(b);
+}
+END_TEST
+
+START_TEST(candidates_refusals)
+{
+    phks_signature *a = creature(SHAPE_QUADRUPED, PHKS_MATCHING_VERIFIED);
+    phks_signature *n = creature(SHAPE_QUADRUPED, PHKS_MATCHING_NEAREST);
+    phks_candidate c[2];
+    size_t count = 7;
+    size_t features = phks_signature_feature_count(a);
+    ck_assert_int_eq(phks_candidates(n, 0, n, 2, c, &count),
+                     PHKS_ERROR_INVALID_ARGUMENT);
+    ck_assert_uint_eq(count, 0);
+    ck_assert_int_eq(phks_candidates(a, 0, n, 2, c, &count),
+                     PHKS_ERROR_INCOMPATIBLE);
+    ck_assert_int_eq(phks_candidates(a, features, a, 2, c, &count),
+                     PHKS_ERROR_INVALID_ARGUMENT);
+    ck_assert_int_eq(phks_candidates(a, 0, a, 0, c, &count),
+                     PHKS_ERROR_INVALID_ARGUMENT);
+    ck_assert_int_eq(phks_candidates(NULL, 0, a, 2, c, &count),
+                     PHKS_ERROR_INVALID_ARGUMENT);
+    ck_assert_int_eq(phks_candidates(a, 0, a, 2, NULL, &count),
+                     PHKS_ERROR_INVALID_ARGUMENT);
+    ck_assert_int_eq(phks_candidates(a, 0, a, 2, c, NULL),
+                     PHKS_ERROR_INVALID_ARGUMENT);
+    phks_signature_free(a);
+    phks_signature_free(n);
+}
+END_TEST
+
 int main(void)
 {
     Suite *s = suite_create("similarity");
@@ -169,6 +262,9 @@ int main(void)
     tcase_add_test(c, nearest_follows_its_formula);
     tcase_add_test(c, refusals);
     tcase_add_test(c, database_entry_gives_the_same);
+    tcase_add_test(c, candidates_of_itself_start_with_the_feature);
+    tcase_add_test(c, candidates_are_at_least_the_unit_scale_best);
+    tcase_add_test(c, candidates_refusals);
     suite_add_tcase(s, c);
     return run_suite(s);
 }

@@ -108,6 +108,10 @@ phks_status phks__signature_layout(const phks__unit_mesh *um,
  * sampling leaves (docs/method.md section 16) when both carry one
  * (PHKS_GLOBAL_DESCRIPTOR_D2), 1 otherwise. */
 double phks__global_factor(const phks_signature *a, const phks_signature *b);
+/* phks_candidates on checked arguments: k at most b's points. */
+phks_status phks__candidates(const phks_signature *a, size_t feature,
+                             const phks_signature *b, size_t k,
+                             phks_candidate *out, size_t *count);
 /* The verified correspondences of query a in entry b and the score
  * phks_score documents for PHKS_MATCHING_VERIFIED, given `nearest`, the
  * paper's score of a and b. pair_of[i] (a->count entries, may be NULL)

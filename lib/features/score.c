@@ -354,3 +354,27 @@ phks_status phks_similarity(const phks_signature *query,
         *verified = paired;
     return st;
 }
+
+phks_status phks_candidates(const phks_signature *a, size_t feature,
+                            const phks_signature *b, size_t k,
+                            phks_candidate *out, size_t *count)
+{
+    static const char fn[] = "phks_candidates";
+    if (!out || !count)
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT, "%s: NULL argument", fn);
+    *count = 0;
+    phks_status st = check_pair(a, b, fn);
+    if (st != PHKS_OK)
+        return st;
+    if (a->options.matching != PHKS_MATCHING_VERIFIED)
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
+                          "%s: signatures made with matching nearest have "
+                          "no proposals (verified needed)", fn);
+    if (feature >= a->count || k == 0)
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
+                          "%s: feature %zu of %zu, k %zu (k may not be 0)", fn,
+                          feature, a->count, k);
+    size_t points = phks__signature_points(b);
+    return phks__candidates(a, feature, b, k < points ? k : points, out,
+                            count);
+}

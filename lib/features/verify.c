@@ -897,8 +897,8 @@ phks_status phks__verifier_new(const phks_signature *a, size_t points,
     return PHKS_OK;
 }
 
-void phks__verifier_run(phks__verifier *c, const phks_signature *b,
-                        double nearest, uint32_t *pair_of, double *score)
+/* Everything of entry b the scales do not change. */
+static void load_entry(phks__verifier *c, const phks_signature *b)
 {
     c->b = b;
     c->nb = phks__signature_points(b);
@@ -921,8 +921,63 @@ void phks__verifier_run(phks__verifier *c, const phks_signature *b,
         unit_images(b, c->nb, c->ib);
         image_distances(c);
     }
+}
+
+void phks__verifier_run(phks__verifier *c, const phks_signature *b,
+                        double nearest, uint32_t *pair_of, double *score)
+{
+    load_entry(c, b);
     *score = verified_score(nearest, best_affinity(c, pair_of), c->na) *
              phks__global_factor(c->a, b);
+}
+
+/* Into best[j] the affinity of feature i with b's point j at the scale
+ * proposed, where it is larger. */
+static void keep_best_affinities(const phks__verifier *c, size_t i,
+                                 double *best)
+{
+    for (size_t j = 0; j < c->nb; j++) {
+        double u = proposal_affinity(c->dist[i * c->nb + j], false, c->length);
+        if (c->spin)
+            u = fmax(u, proposal_affinity(c->dist_image[i * c->nb + j], true,
+                                          c->length));
+        best[j] = fmax(best[j], u);
+    }
+}
+
+phks_status phks__candidates(const phks_signature *a, size_t feature,
+                             const phks_signature *b, size_t k,
+                             phks_candidate *out, size_t *count)
+{
+    size_t nb = phks__signature_points(b);
+    phks__verifier *c;
+    double *best = phks__calloc(nb + 1, sizeof *best);
+    phks_status st = best ? phks__verifier_new(a, nb, &c)
+                          : phks__fail_oom("phks_candidates");
+    if (st != PHKS_OK) {
+        phks__free(best);
+        return st;
+    }
+    load_entry(c, b);
+    for (int steps = -SCALE_STEPS; steps <= SCALE_STEPS; steps++) {
+        propose_at(c, steps);
+        keep_best_affinities(c, feature, best);
+    }
+    size_t taken = 0;
+    for (; taken < k && taken < nb; taken++) {
+        size_t most = 0;
+        for (size_t j = 1; j < nb; j++)
+            if (best[j] > best[most])
+                most = j;
+        if (!(best[most] > 0))
+            break;
+        out[taken] = (phks_candidate){(uint32_t)most, best[most]};
+        best[most] = -1;
+    }
+    *count = taken;
+    phks__verifier_free(c);
+    phks__free(best);
+    return PHKS_OK;
 }
 
 phks_status phks__verify(const phks_signature *a, const phks_signature *b,
