@@ -437,6 +437,7 @@ int cli_bench(int argc, char **argv, const phks_options *options)
         free(p.items[i].truth);
         free(p.items[i].error);
         free(p.items[i].verified);
+        free(p.items[i].recall);
         free(p.items[i].evd);
     }
     free(p.items);

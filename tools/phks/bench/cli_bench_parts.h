@@ -72,6 +72,7 @@ typedef struct bench_item {
     double *error;           /* per feature: its match's distance from the
                                 true point, in sqrt(source area)          */
     unsigned char *verified; /* per feature: its match is verified        */
+    unsigned char *recall;   /* per feature: a recall_of value            */
     double *evd;             /* --descriptor evd: BENCH_EVD_COUNT
                                 eigenvalues; NULL otherwise or failed     */
 } bench_item;

@@ -81,6 +81,44 @@ static long own_rank(const source_ctx *c, size_t m, const bench_item *query)
     return 0;
 }
 
+/* Where a version's feature stands in the descriptor recall: a point
+ * of the source's signature among the 3 its description proposes lies
+ * within BENCH_CORRECT_RADIUS of its true point, or none does though one
+ * of the signature's points lies that near, or none lies that near. */
+enum recall_of { RECALL_MISS, RECALL_HIT, RECALL_NO_POINT };
+#define RECALL_DEPTH 3
+
+/* The distance along the source from its signature's point p to vertex
+ * t, in units of unit; INFINITY without memory for the field. */
+static double from_point(fields *g, size_t p, uint32_t t, double unit)
+{
+    const double *d = field(g, p);
+    return d ? d[t] / unit : INFINITY;
+}
+
+static phks_status recall_of(fields *g, double unit, const bench_item *v,
+                             size_t f, unsigned char *out)
+{
+    size_t points = phks_signature_feature_count(g->sig) +
+                    phks_signature_sample_count(g->sig);
+    uint32_t t = v->truth[f];
+    double nearest = INFINITY;
+    for (size_t p = 0; p < points; p++)
+        nearest = fmin(nearest, from_point(g, p, t, unit));
+    *out = RECALL_NO_POINT;
+    if (!(nearest <= BENCH_CORRECT_RADIUS))
+        return PHKS_OK;
+    phks_candidate c[RECALL_DEPTH];
+    size_t count;
+    phks_status st = phks_candidates(v->sig, f, g->sig, RECALL_DEPTH, c,
+                                     &count);
+    *out = RECALL_MISS;
+    for (size_t r = 0; st == PHKS_OK && r < count; r++)
+        if (from_point(g, c[r].point, t, unit) <= BENCH_CORRECT_RADIUS)
+            *out = RECALL_HIT;
+    return st;
+}
+
 /* Every feature of the version v (its rows of phks_match against the
  * source), verified or not: the distance of its match from its true
  * point, in units of unit. */
@@ -91,8 +129,12 @@ static phks_status match(fields *g, double unit, bench_item *v)
     phks_correspondence *rows = malloc((cap + 1) * sizeof *rows);
     double score;
     v->error = malloc((na + 1) * sizeof *v->error);
+    /* Recall needs the proposals, which only verified matching makes. */
+    int proposals = g->options->matching == PHKS_MATCHING_VERIFIED;
     v->verified = malloc(na + 1);
-    phks_status st = rows && v->error && v->verified
+    v->recall = proposals ? malloc(na + 1) : NULL;
+    phks_status st = rows && v->error && v->verified &&
+                     (v->recall || !proposals)
         ? phks_match(v->sig, g->sig, rows, cap, &count, &score)
         : PHKS_ERROR_OUT_OF_MEMORY;
     for (size_t r = 0; st == PHKS_OK && r < count; r++) {
@@ -104,6 +146,8 @@ static phks_status match(fields *g, double unit, bench_item *v)
             v->verified[rows[r].feature_a] = (unsigned char)rows[r].verified;
         }
     }
+    for (size_t f = 0; st == PHKS_OK && v->recall && f < na; f++)
+        st = recall_of(g, unit, v, f, &v->recall[f]);
     v->matched = st == PHKS_OK;
     free(rows);
     return st;
@@ -176,6 +220,7 @@ typedef struct source_counts {
     size_t queries, failed, top1, top5;  /* retrieval                      */
     size_t versions, unmatched;          /* correspondences: versions ...  */
     size_t features, correct, verified, verified_correct;  /* ... features */
+    size_t recalled, no_point;           /* descriptor recall               */
     double median, verified_median;      /* NAN: no feature                */
 } source_counts;
 
@@ -207,6 +252,8 @@ static void count_item(const bench_item *v, source_counts *c, double *all,
         int correct = v->error[f] <= BENCH_CORRECT_RADIUS;
         all[c->features++] = v->error[f];
         c->correct += (size_t)correct;
+        c->recalled += v->recall && v->recall[f] == RECALL_HIT;
+        c->no_point += v->recall && v->recall[f] == RECALL_NO_POINT;
         if (v->verified[f]) {
             ver[c->verified++] = v->error[f];
             c->verified_correct += (size_t)correct;
@@ -282,6 +329,25 @@ static void print_tables(const bench_plan *p, unsigned lo, unsigned hi)
         print_error(c[r].verified_median);
         printf("\n");
     }
+    if (p->options.matching != PHKS_MATCHING_VERIFIED)
+        return;
+    printf("\nDescriptor recall: for each feature, whether a point of the "
+           "source's signature among the %d that phks_candidates proposes "
+           "lies within %g sqrt(area) of the point it came from; features "
+           "with no signature point that near count as misses.\n\n"
+           "| versions | features | no point near | percent | recalled | "
+           "percent | percent of those with a point near |\n"
+           "|---|---:|---:|---:|---:|---:|---:|\n", RECALL_DEPTH,
+           BENCH_CORRECT_RADIUS);
+    for (int r = 0; r < 3; r++) {
+        printf("| %s | %zu | %zu |", bench_sets[r + 1].name, c[r].features,
+               c[r].no_point);
+        bench_print_percent(c[r].no_point, c[r].features);
+        printf(" %zu |", c[r].recalled);
+        bench_print_percent(c[r].recalled, c[r].features);
+        bench_print_percent(c[r].recalled, c[r].features - c[r].no_point);
+        printf("\n");
+    }
 }
 
 void bench_source_print(const bench_plan *plan, const char *one_character)
@@ -319,6 +385,9 @@ static void json_row(const bench_set *set, const source_counts *c)
     cli_json_number(c->median);
     fputs(", \"verified_median_error\": ", stdout);
     cli_json_number(c->verified_median);
+    printf(", \"no_point_near\": %zu, \"recalled\": %zu, "
+           "\"recall_percent\": ", c->no_point, c->recalled);
+    bench_json_percent(c->recalled, c->features);
     putchar('}');
 }
 
