@@ -6,10 +6,10 @@
  * For every blob accepted: the signature is sane; encoding it gives back
  * the blob itself (in the format the encoder picks for its options), a
  * longer one (an older format gains the newer fields) or a shorter one (a
- * newer format holding only older options, or a local descriptor that
- * NEAREST ignores, loses them); and decode(encode(decode(x))) is
- * decode(x), field by field and bit for bit (the local descriptor where
- * it counts: with VERIFIED), and scores 0 against it.
+ * newer format holding only older options, or descriptors that NEAREST
+ * ignores, loses them); and decode(encode(decode(x))) is decode(x), field
+ * by field and bit for bit (the descriptors where they count: with
+ * VERIFIED), and scores 0 against it.
  */
 #include "fuzz_common.h"
 
@@ -33,6 +33,10 @@ static void check_sane(const phks_signature *sig)
     FUZZ_CHECK((sig->spin != NULL) ==
                (sig->options.matching == PHKS_MATCHING_VERIFIED &&
                 sig->options.local_descriptor == PHKS_LOCAL_DESCRIPTOR_SPIN));
+    /* A shape distribution exactly with VERIFIED and D2. */
+    FUZZ_CHECK(sig->has_shape ==
+               (sig->options.matching == PHKS_MATCHING_VERIFIED &&
+                sig->options.global_descriptor == PHKS_GLOBAL_DESCRIPTOR_D2));
     for (size_t i = 0; i < points; i++) {
         if (sig->boundary)
             FUZZ_CHECK(sig->boundary[i] >= 0);
@@ -91,6 +95,11 @@ static void check_same(const phks_signature *a, const phks_signature *b)
         FUZZ_CHECK(x->local_descriptor == y->local_descriptor);
         FUZZ_CHECK(same_bits(a->spin, b->spin, points * PHKS__SPIN_BYTES));
     }
+    FUZZ_CHECK(a->has_shape == b->has_shape);
+    if (a->has_shape) {
+        FUZZ_CHECK(x->global_descriptor == y->global_descriptor);
+        FUZZ_CHECK(same_bits(a->shape, b->shape, PHKS__SHAPE_BINS));
+    }
     double score = -1;
     FUZZ_CHECK(phks_score(a, b, &score) == PHKS_OK && score == 0);
 }
@@ -136,7 +145,7 @@ static void decode_and_round_trip(const uint8_t *data, size_t size)
     unsigned current = (unsigned)blob1[4] | (unsigned)blob1[5] << 8;
     /* A newer format holding only older options is read, and written
      * back in the oldest format that holds them. */
-    FUZZ_CHECK(format >= 1 && format <= 5 && current <= 5);
+    FUZZ_CHECK(format >= 1 && format <= 6 && current <= 6);
     if (format == current)
         FUZZ_CHECK(n1 == size && memcmp(blob1, data, size) == 0);
     else if (format < current) /* an older blob gains the newer fields */

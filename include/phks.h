@@ -415,7 +415,8 @@ PHKS_API phks_status phks_options_init(phks_options *options);
  * operator_kind, box, quadrature, feature_count, scale_count,
  * feature_scale, boundary_margin, hks_scaling, matching, scales), then
  * solver, threads, tolerance, simplify_above, simplify_target, then
- * local_descriptor (since 0.3.0; it shapes VERIFIED signatures only).
+ * local_descriptor and global_descriptor (since 0.3.0; they shape
+ * VERIFIED signatures only).
  * Every function here is thread-safe and allocates nothing; returned
  * strings are static. */
 typedef enum phks_spelling {
@@ -456,7 +457,7 @@ PHKS_API phks_status phks_option_find(const char *name, phks_spelling spelling,
 
 /* Name of `value` of option `index` in spelling when the option is an enum
  * (operator_kind, box, solver, hks_scaling, quadrature, matching,
- * local_descriptor): for
+ * local_descriptor, global_descriptor): for
  * example "local-area" for hks_scaling 2 in PHKS_SPELLING_CLI. NULL when
  * the option is not an enum, the value has no name or the spelling is
  * unknown. An enum's values are 0, 1, ... up to the first NULL. */
@@ -487,13 +488,13 @@ PHKS_API phks_status phks_option_format(const phks_options *options,
 /* Whether signatures made with options a and b are comparable: every option
  * that shapes a signature's numbers equal (not solver, threads, tolerance,
  * callbacks nor the HKS-simp switch, which change how the numbers are
- * computed, not what they mean; local_descriptor only when both match
- * VERIFIED, since NEAREST ignores it). Returns PHKS_OK when they are, and
- * PHKS_ERROR_INCOMPATIBLE when not, with the first option that differs and
- * both values in spelling, "hks-scaling local-area against none", in
- * detail (size bytes; cut to fit; may be NULL when size is 0) and in
- * phks_last_error_message(). Errors: PHKS_ERROR_INVALID_ARGUMENT (NULL
- * options, unknown spelling). */
+ * computed, not what they mean; local_descriptor and global_descriptor
+ * only when both match VERIFIED, since NEAREST ignores them). Returns
+ * PHKS_OK when they are, and PHKS_ERROR_INCOMPATIBLE when not, with the
+ * first option that differs and both values in spelling, "hks-scaling
+ * local-area against none", in detail (size bytes; cut to fit; may be
+ * NULL when size is 0) and in phks_last_error_message(). Errors:
+ * PHKS_ERROR_INVALID_ARGUMENT (NULL options, unknown spelling). */
 PHKS_API phks_status phks_options_compare(const phks_options *a,
                                           const phks_options *b,
                                           phks_spelling spelling, char *detail,
@@ -839,8 +840,9 @@ PHKS_API const double *phks_signature_feature_vector(
  * resolved (progress and progress_user NULL), so that a new signature can
  * be made comparable with it, or with a database that holds it: a blob
  * decoded from an older version gives the options that version used. A
- * NEAREST signature's blob leaves out local_descriptor, which NEAREST
- * ignores: decoded, it reads PHKS_LOCAL_DESCRIPTOR_HEAT.
+ * NEAREST signature's blob leaves out local_descriptor and
+ * global_descriptor, which NEAREST ignores: decoded, it reads
+ * PHKS_LOCAL_DESCRIPTOR_HEAT and PHKS_GLOBAL_DESCRIPTOR_NONE.
  * Errors: PHKS_ERROR_INVALID_ARGUMENT (NULL). Thread-safe. */
 PHKS_API phks_status phks_signature_options(const phks_signature *signature,
                                             phks_options *options);

@@ -453,6 +453,7 @@ Datum phks_pg_options(PG_FUNCTION_ARGS)
     json_enum(&out, "quadrature", o.quadrature);
     json_enum(&out, "matching", o.matching);
     json_enum(&out, "local_descriptor", o.local_descriptor);
+    json_enum(&out, "global_descriptor", o.global_descriptor);
     appendStringInfoChar(&out, '}');
     /* json's representation is its text. */
     PG_RETURN_TEXT_P(cstring_to_text_with_len(out.data, out.len));

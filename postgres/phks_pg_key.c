@@ -21,6 +21,13 @@
  * version stay valid keys and compare as they did. A key records it only
  * for VERIFIED signatures (0 with NEAREST, which ignores it), as
  * phks_options_compare compares it only there.
+ *
+ * The global descriptor (0.3.0) is not recorded: the header has no
+ * padding left, and a field would move the options and turn every stored
+ * key into one of another version. It changes none of the vectors a key
+ * holds, so key <#> q scores keys of either, and the second stage,
+ * sig <~> q on the shortlist's signatures, refuses a mixed pair with the
+ * library's message (docs/postgres.md, "Large tables").
  */
 #include "phks_pg.h"
 

@@ -77,6 +77,7 @@ START_TEST(options_defaults_are_the_papers)
     ck_assert_int_eq(o.hks_scaling, PHKS_HKS_SCALING_LOCAL_AREA);
     ck_assert_int_eq(o.matching, PHKS_MATCHING_VERIFIED);
     ck_assert_int_eq(o.local_descriptor, PHKS_LOCAL_DESCRIPTOR_HEAT);
+    ck_assert_int_eq(o.global_descriptor, PHKS_GLOBAL_DESCRIPTOR_NONE);
     ck_assert_int_eq(phks_options_init(NULL), PHKS_ERROR_INVALID_ARGUMENT);
 }
 END_TEST
@@ -119,6 +120,9 @@ START_TEST(bad_options_are_refused)
     /* Checked with NEAREST too, which ignores a valid one. */
     REFUSED((o.matching = PHKS_MATCHING_NEAREST, o.local_descriptor = -1),
             "local_descriptor");
+    REFUSED(o.global_descriptor = 2, "unknown global_descriptor 2");
+    REFUSED((o.matching = PHKS_MATCHING_NEAREST, o.global_descriptor = -1),
+            "global_descriptor");
 #undef REFUSED
     phks_mesh_free(m);
 }
@@ -136,6 +140,43 @@ START_TEST(old_callers_zero_pad_is_heat)
     ck_assert_int_eq(o.local_descriptor, PHKS_LOCAL_DESCRIPTOR_HEAT);
     ck_assert_int_eq(phks__options_resolve(&o, &resolved), PHKS_OK);
     ck_assert_int_eq(resolved.local_descriptor, PHKS_LOCAL_DESCRIPTOR_HEAT);
+}
+END_TEST
+
+/* A caller built against 0.2.0's header left its reserved words, from
+ * where global_descriptor now sits to the end, zero: NONE, so its options
+ * still pass. */
+START_TEST(old_callers_zero_reserved_is_no_global_descriptor)
+{
+    phks_options o, resolved;
+    phks_options_init(&o);
+    size_t from = offsetof(phks_options, global_descriptor);
+    memset((char *)&o + from, 0, sizeof o - from);
+    ck_assert_int_eq(phks__options_resolve(&o, &resolved), PHKS_OK);
+    ck_assert_int_eq(resolved.global_descriptor, PHKS_GLOBAL_DESCRIPTOR_NONE);
+}
+END_TEST
+
+/* Two VERIFIED option sets of other global descriptors are incomparable,
+ * the message naming the option and both values; NEAREST ignores it. */
+START_TEST(global_descriptor_compares_only_when_verified)
+{
+    phks_options a, b;
+    phks_options_init(&a);
+    b = a;
+    b.global_descriptor = PHKS_GLOBAL_DESCRIPTOR_D2;
+    char detail[64];
+    ck_assert_int_eq(phks_options_compare(&a, &b, PHKS_SPELLING_C, detail,
+                                          sizeof detail),
+                     PHKS_ERROR_INCOMPATIBLE);
+    ck_assert_str_eq(detail, "global_descriptor none against d2");
+    ck_assert_str_eq(phks_last_error_message(),
+                     "options differ: global_descriptor none against d2");
+    ck_assert(!phks__options_comparable(&a, &b));
+    a.matching = b.matching = PHKS_MATCHING_NEAREST;
+    ck_assert_int_eq(phks_options_compare(&a, &b, PHKS_SPELLING_C, NULL, 0),
+                     PHKS_OK);
+    ck_assert(phks__options_comparable(&a, &b));
 }
 END_TEST
 
@@ -204,6 +245,8 @@ int main(void)
     tcase_add_test(c, options_defaults_are_the_papers);
     tcase_add_test(c, bad_options_are_refused);
     tcase_add_test(c, old_callers_zero_pad_is_heat);
+    tcase_add_test(c, old_callers_zero_reserved_is_no_global_descriptor);
+    tcase_add_test(c, global_descriptor_compares_only_when_verified);
     tcase_add_test(c, allocator_hook_sees_every_allocation);
     tcase_add_test(c, null_handles_are_harmless);
     suite_add_tcase(s, c);

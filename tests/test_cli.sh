@@ -600,6 +600,24 @@ run "$phks" --matching nearest --local-descriptor heat signature box.off \
     -o hn.sig; expect_rc 0
 run "$phks" --matching nearest match hn.sig box.off; expect_rc 0 \
     "nearest matching ignores the local descriptor"
+# --global-descriptor: recorded, refused against a database of the other
+# one (both verified), shown in the options summary; ignored with
+# --matching nearest.
+run "$phks" --global-descriptor d2 signature box.off --json; expect_rc 0 \
+    "signature --global-descriptor d2"
+expect_out '"global_descriptor": "d2"'
+run "$phks" --global-descriptor D2 signature box.off; expect_rc 2 \
+    "--global-descriptor D2"
+expect_err "^phks: --global-descriptor: 'D2' is not one of none, d2$"
+run "$phks" --global-descriptor d2 db query t.db box.off; expect_rc 1 \
+    "db query --global-descriptor d2 against a database without"
+expect_err "^phks: t.db: the options given are not the database's: --global-descriptor d2 against none "
+run "$phks" db info t.db; expect_rc 0 "db info"
+expect_out "matching verified, local descriptor heat, global descriptor none, HKS-simp"
+run "$phks" --matching nearest --global-descriptor d2 signature box.off \
+    -o dn.sig; expect_rc 0 "a nearest signature leaves the global descriptor out"
+run "$phks" --matching nearest match dn.sig box.off; expect_rc 0 \
+    "nearest matching ignores the global descriptor"
 # Blobs, directories, duplicates.
 mkdir -p tree/sub tree/sub/deeper
 cp a.off tree/sub/z.off; cp a.sig tree/a.sig; cp b.off tree/sub/deeper/b.off

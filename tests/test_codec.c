@@ -62,6 +62,20 @@ static phks_signature *make_verified(size_t count, size_t samples,
     return sig;
 }
 
+/* make_verified's signature made with PHKS_GLOBAL_DESCRIPTOR_D2, its
+ * shape distribution of bytes that differ from bin to bin, set here as
+ * the computation would: the codec does not depend on it. */
+static phks_signature *make_d2(size_t count, size_t samples,
+                               int32_t descriptor, uint64_t seed)
+{
+    phks_signature *sig = make_verified(count, samples, descriptor, seed);
+    sig->options.global_descriptor = PHKS_GLOBAL_DESCRIPTOR_D2;
+    sig->has_shape = true;
+    for (size_t b = 0; b < PHKS__SHAPE_BINS; b++)
+        sig->shape[b] = (uint8_t)(200 - 5 * b + seed);
+    return sig;
+}
+
 /* Rewrites the CRC-32 at the end of a hand-edited blob. */
 static void fix_crc(unsigned char *blob, size_t size)
 {
@@ -249,7 +263,7 @@ START_TEST(every_damage_is_refused)
         ck_assert(st == PHKS_ERROR_TRUNCATED || st == PHKS_ERROR_CORRUPT);
     }
     memcpy(copy, blob, size);
-    copy[4] = 6; /* a newer format */
+    copy[4] = 7; /* a newer format */
     ck_assert_int_eq(phks_signature_decode(copy, size, &out),
                      PHKS_ERROR_UNSUPPORTED_VERSION);
     ck_assert_int_eq(phks_signature_decode(NULL, size, &out),
@@ -549,6 +563,242 @@ START_TEST(local_descriptors_compare_only_when_verified)
 }
 END_TEST
 
+/* Format 6: a VERIFIED signature with the shape distribution keeps its
+ * PHKS__SHAPE_BINS bytes, bit for bit, after the layout and the spin
+ * images; the global descriptor sits at offset 76, after the local one,
+ * and the blob is the format-5 one plus those 4 and 32 bytes. */
+START_TEST(format_6_round_trip_keeps_the_shape_distribution)
+{
+    const size_t count = 4, samples = 3, points = count + samples;
+    phks_signature *sig = make_d2(count, samples, PHKS_LOCAL_DESCRIPTOR_SPIN, 21);
+    size_t size;
+    unsigned char *blob = encode(sig, &size);
+    const unsigned char head[8] = {'P', 'H', 'K', 'S', 6, 0, 0, 0};
+    ck_assert_mem_eq(blob, head, 8);
+    const unsigned char descriptors[8] = {1, 0, 0, 0, 1, 0, 0, 0};
+    ck_assert_mem_eq(blob + 72, descriptors, 8);
+    sig->options.global_descriptor = PHKS_GLOBAL_DESCRIPTOR_NONE;
+    size_t size5;
+    unsigned char *five = encode(sig, &size5);
+    sig->options.global_descriptor = PHKS_GLOBAL_DESCRIPTOR_D2;
+    ck_assert_uint_eq(five[4], 5);
+    ck_assert_uint_eq(size, size5 + 4 + PHKS__SHAPE_BINS);
+    ck_assert_mem_eq(blob + size - 4 - PHKS__SHAPE_BINS, sig->shape,
+                     PHKS__SHAPE_BINS);
+    phks_signature *back;
+    ck_assert_int_eq(phks_signature_decode(blob, size, &back), PHKS_OK);
+    ck_assert_int_eq(back->options.global_descriptor,
+                     PHKS_GLOBAL_DESCRIPTOR_D2);
+    ck_assert_int_eq(back->options.local_descriptor,
+                     PHKS_LOCAL_DESCRIPTOR_SPIN);
+    ck_assert(back->has_shape);
+    ck_assert_mem_eq(back->shape, sig->shape, PHKS__SHAPE_BINS);
+    ck_assert_mem_eq(back->spin, sig->spin, points * PHKS__SPIN_BYTES);
+    ck_assert_mem_eq(back->geodesic, sig->geodesic,
+                     phks__pair_count(points) * sizeof(float));
+    size_t again;
+    unsigned char *twice = encode(back, &again);
+    ck_assert_uint_eq(again, size);
+    ck_assert_mem_eq(twice, blob, size);
+    phks_signature_free(back);
+    phks_signature_free(sig);
+    free(blob);
+    free(five);
+    free(twice);
+}
+END_TEST
+
+/* With HEAT, format 6 still holds the local descriptor (0): the format-4
+ * blob plus the two descriptors' 8 bytes and the distribution's 32. */
+START_TEST(format_6_holds_heat_too)
+{
+    phks_signature *d2 = make_d2(3, 2, PHKS_LOCAL_DESCRIPTOR_HEAT, 22);
+    phks_signature *none = make_verified(3, 2, PHKS_LOCAL_DESCRIPTOR_HEAT, 22);
+    size_t size6, size4;
+    unsigned char *six = encode(d2, &size6);
+    unsigned char *four = encode(none, &size4);
+    ck_assert_uint_eq(six[4], 6);
+    ck_assert_uint_eq(four[4], 4);
+    ck_assert_uint_eq(size6, size4 + 8 + PHKS__SHAPE_BINS);
+    const unsigned char descriptors[8] = {0, 0, 0, 0, 1, 0, 0, 0};
+    ck_assert_mem_eq(six + 72, descriptors, 8);
+    /* Less the two fields and the distribution, the bytes are format 4's. */
+    ck_assert_mem_eq(six + 8, four + 8, 64);
+    ck_assert_mem_eq(six + 80, four + 72, size4 - 72 - 4);
+    phks_signature *back;
+    ck_assert_int_eq(phks_signature_decode(six, size6, &back), PHKS_OK);
+    ck_assert_int_eq(back->options.local_descriptor,
+                     PHKS_LOCAL_DESCRIPTOR_HEAT);
+    ck_assert_ptr_null(back->spin);
+    ck_assert(back->has_shape);
+    ck_assert_mem_eq(back->shape, d2->shape, PHKS__SHAPE_BINS);
+    phks_signature_free(back);
+    phks_signature_free(d2);
+    phks_signature_free(none);
+    free(six);
+    free(four);
+}
+END_TEST
+
+/* NONE keeps the older formats' bytes, and every older blob decodes with
+ * NONE and no distribution; a format-6 blob that holds NONE (no writer of
+ * this library makes one) decodes too and is written back in format 5. */
+START_TEST(none_keeps_older_formats)
+{
+    phks_signature *spin = make_verified(2, 2, PHKS_LOCAL_DESCRIPTOR_SPIN, 23);
+    phks_signature *heat = make_verified(2, 2, PHKS_LOCAL_DESCRIPTOR_HEAT, 23);
+    phks_signature *near = make(2, 23);
+    phks_signature *sigs[3] = {spin, heat, near};
+    const unsigned formats[3] = {5, 4, 2};
+    size_t size;
+    for (int k = 0; k < 3; k++) {
+        unsigned char *blob = encode(sigs[k], &size);
+        ck_assert_uint_eq(blob[4], formats[k]);
+        phks_signature *back;
+        ck_assert_int_eq(phks_signature_decode(blob, size, &back), PHKS_OK);
+        ck_assert_int_eq(back->options.global_descriptor,
+                         PHKS_GLOBAL_DESCRIPTOR_NONE);
+        ck_assert(!back->has_shape);
+        phks_signature_free(back);
+        free(blob);
+    }
+    unsigned char *five = encode(spin, &size);
+    unsigned char *six = calloc(1, size + 4);
+    memcpy(six, five, 76);
+    memcpy(six + 80, five + 76, size - 76);
+    six[4] = 6;
+    fix_crc(six, size + 4);
+    phks_signature *back;
+    ck_assert_int_eq(phks_signature_decode(six, size + 4, &back), PHKS_OK);
+    ck_assert_int_eq(back->options.global_descriptor,
+                     PHKS_GLOBAL_DESCRIPTOR_NONE);
+    ck_assert(!back->has_shape);
+    size_t again;
+    unsigned char *twice = encode(back, &again);
+    ck_assert_uint_eq(again, size);
+    ck_assert_mem_eq(twice, five, size);
+    phks_signature_free(back);
+    free(twice);
+    free(six);
+    free(five);
+    phks_signature_free(spin);
+    phks_signature_free(heat);
+    phks_signature_free(near);
+}
+END_TEST
+
+/* NEAREST ignores the global descriptor: its blob leaves it out (format
+ * 2, the same bytes as with NONE) and decodes with NONE. */
+START_TEST(nearest_blobs_leave_the_global_descriptor_out)
+{
+    phks_signature *sig = make(3, 24);
+    size_t size_none, size_d2;
+    unsigned char *with_none = encode(sig, &size_none);
+    sig->options.global_descriptor = PHKS_GLOBAL_DESCRIPTOR_D2;
+    unsigned char *with_d2 = encode(sig, &size_d2);
+    ck_assert_uint_eq(with_d2[4], 2);
+    ck_assert_uint_eq(size_d2, size_none);
+    ck_assert_mem_eq(with_d2, with_none, size_none);
+    phks_signature *back;
+    ck_assert_int_eq(phks_signature_decode(with_d2, size_d2, &back), PHKS_OK);
+    ck_assert_int_eq(back->options.global_descriptor,
+                     PHKS_GLOBAL_DESCRIPTOR_NONE);
+    ck_assert(!back->has_shape);
+    phks_signature_free(back);
+    phks_signature_free(sig);
+    free(with_none);
+    free(with_d2);
+}
+END_TEST
+
+/* A format-6 blob cut anywhere, one byte short of its distribution or
+ * one byte over (checksums made again), or with any bit flipped, is
+ * refused, its output NULL; an unknown global descriptor is an impossible
+ * option; a D2 signature without its distribution cannot be encoded. */
+START_TEST(format_6_damage_is_refused)
+{
+    phks_signature *sig = make_d2(2, 1, PHKS_LOCAL_DESCRIPTOR_HEAT, 25);
+    size_t size;
+    unsigned char *blob = encode(sig, &size);
+    phks_signature *out;
+    for (size_t len = 0; len < size; len++) {
+        out = (phks_signature *)1;
+        phks_status st = phks_signature_decode(blob, len, &out);
+        ck_assert_msg(st == PHKS_ERROR_TRUNCATED || st == PHKS_ERROR_CORRUPT,
+                      "%zu bytes: %d", len, (int)st);
+        ck_assert_ptr_null(out);
+    }
+    unsigned char *copy = malloc(size + 1);
+    memcpy(copy, blob, size);
+    memmove(copy + size - 5, copy + size - 4, 4);
+    fix_crc(copy, size - 1);
+    ck_assert_int_eq(phks_signature_decode(copy, size - 1, &out),
+                     PHKS_ERROR_TRUNCATED);
+    ck_assert_ptr_null(out);
+    memcpy(copy, blob, size - 4);
+    copy[size - 4] = 0x55;
+    fix_crc(copy, size + 1);
+    ck_assert_int_eq(phks_signature_decode(copy, size + 1, &out),
+                     PHKS_ERROR_CORRUPT);
+    ck_assert_ptr_null(out);
+    for (size_t byte = 0; byte < size; byte++) {
+        memcpy(copy, blob, size);
+        copy[byte] ^= (unsigned char)(1u << (byte % 8));
+        out = (phks_signature *)1;
+        ck_assert_int_ne(phks_signature_decode(copy, size, &out), PHKS_OK);
+        ck_assert_ptr_null(out);
+    }
+    /* Global descriptor 2, checksum fixed: no distribution expected, and
+     * refused as a bad option. */
+    phks_signature *two = make_verified(2, 1, PHKS_LOCAL_DESCRIPTOR_HEAT, 25);
+    two->options.global_descriptor = 2;
+    size_t size2;
+    unsigned char *blob2 = encode(two, &size2);
+    ck_assert_uint_eq(blob2[4], 6);
+    ck_assert_uint_eq(size2, size - PHKS__SHAPE_BINS);
+    ck_assert_int_eq(phks_signature_decode(blob2, size2, &out),
+                     PHKS_ERROR_CORRUPT);
+    ck_assert_ptr_nonnull(strstr(phks_last_error_message(),
+                                 "unknown global_descriptor 2"));
+    ck_assert_ptr_null(out);
+    phks_signature_free(two);
+    free(blob2);
+    sig->has_shape = false;
+    ck_assert_int_eq(phks_signature_encode(sig, copy, size, &size),
+                     PHKS_ERROR_INVALID_ARGUMENT);
+    ck_assert_str_eq(phks_last_error_message(),
+                     "phks_signature_encode: a D2 signature without its "
+                     "shape distribution");
+    phks_signature_free(sig);
+    free(blob);
+    free(copy);
+}
+END_TEST
+
+/* Two VERIFIED signatures of other global descriptors do not score, the
+ * message naming the option and both values; two NEAREST ones do. */
+START_TEST(global_descriptors_compare_only_when_verified)
+{
+    phks_signature *none = make_verified(3, 2, PHKS_LOCAL_DESCRIPTOR_HEAT, 26);
+    phks_signature *d2 = make_d2(3, 2, PHKS_LOCAL_DESCRIPTOR_HEAT, 27);
+    double score;
+    ck_assert_int_eq(phks_score(none, d2, &score), PHKS_ERROR_INCOMPATIBLE);
+    ck_assert_ptr_nonnull(strstr(phks_last_error_message(),
+                                 "global_descriptor none against d2"));
+    ck_assert_int_eq(phks_score_nearest(d2, none, &score),
+                     PHKS_ERROR_INCOMPATIBLE);
+    ck_assert_ptr_nonnull(strstr(phks_last_error_message(),
+                                 "global_descriptor d2 against none"));
+    phks_signature *a = make(3, 28), *b = make(3, 29);
+    b->options.global_descriptor = PHKS_GLOBAL_DESCRIPTOR_D2;
+    ck_assert_int_eq(phks_score(a, b, &score), PHKS_OK);
+    phks_signature_free(a);
+    phks_signature_free(b);
+    phks_signature_free(none);
+    phks_signature_free(d2);
+}
+END_TEST
+
 /* Score and match against a brute-force evaluation of docs/method.md
  * section 10. */
 START_TEST(score_is_the_symmetric_nearest_sum)
@@ -618,6 +868,12 @@ int main(void)
     tcase_add_test(c, nearest_blobs_leave_the_descriptor_out);
     tcase_add_test(c, format_5_damage_is_refused);
     tcase_add_test(c, local_descriptors_compare_only_when_verified);
+    tcase_add_test(c, format_6_round_trip_keeps_the_shape_distribution);
+    tcase_add_test(c, format_6_holds_heat_too);
+    tcase_add_test(c, none_keeps_older_formats);
+    tcase_add_test(c, nearest_blobs_leave_the_global_descriptor_out);
+    tcase_add_test(c, format_6_damage_is_refused);
+    tcase_add_test(c, global_descriptors_compare_only_when_verified);
     suite_add_tcase(s, c);
     return run_suite(s);
 }

@@ -569,6 +569,69 @@ START_TEST(local_descriptor_is_the_databases)
 }
 END_TEST
 
+/* verified_synthetic's HEAT signature, made with the global descriptor
+ * given; with D2 a shape distribution of bytes that differ from bin to
+ * bin, set here as the computation would. */
+static phks_signature *global_synthetic(uint64_t *seed, int32_t descriptor)
+{
+    phks_signature *sig =
+        verified_synthetic(6, seed, PHKS_LOCAL_DESCRIPTOR_HEAT);
+    sig->options.global_descriptor = descriptor;
+    sig->has_shape = descriptor == PHKS_GLOBAL_DESCRIPTOR_D2;
+    for (size_t b = 0; sig->has_shape && b < PHKS__SHAPE_BINS; b++)
+        sig->shape[b] = (uint8_t)(7 * b + 3);
+    return sig;
+}
+
+/* The global descriptor is one of a database's options too: a file of
+ * NONE signatures (0.2.0's bytes) refuses a D2 entry and a D2 query,
+ * naming the option and both values; a file of D2 signatures (its
+ * options blob format 6) keeps their distributions and refuses NONE. */
+START_TEST(global_descriptor_is_the_databases)
+{
+    uint64_t seed = 31;
+    char *dir = temp_dir();
+    const int32_t descriptors[2] = {PHKS_GLOBAL_DESCRIPTOR_NONE,
+                                    PHKS_GLOBAL_DESCRIPTOR_D2};
+    for (int d = 0; d < 2; d++) {
+        char path[256];
+        snprintf(path, sizeof path, "%s/%d.db", dir, d);
+        phks_signature *mine = global_synthetic(&seed, descriptors[d]);
+        phks_signature *other = global_synthetic(&seed, descriptors[1 - d]);
+        phks_db *db;
+        ck_assert_int_eq(phks_db_open(path, PHKS_DB_CREATE, &db), PHKS_OK);
+        ck_assert_int_eq(phks_db_add(db, "mine", NULL, mine, NULL), PHKS_OK);
+        ck_assert_int_eq(phks_db_add(db, "other", NULL, other, NULL),
+                         PHKS_ERROR_INCOMPATIBLE);
+        phks_db_close(db);
+        /* A fresh handle reads the options back from the file. */
+        ck_assert_int_eq(phks_db_open(path, PHKS_DB_READONLY, &db), PHKS_OK);
+        phks_hit hits[2];
+        size_t count = 0;
+        ck_assert_int_eq(phks_db_query(db, mine, 2, hits, &count), PHKS_OK);
+        ck_assert_uint_eq(count, 1);
+        ck_assert_int_eq(phks_db_query(db, other, 2, hits + 1, &count),
+                         PHKS_ERROR_INCOMPATIBLE);
+        char says[64];
+        snprintf(says, sizeof says, "global_descriptor %s against %s",
+                 d ? "none" : "d2", d ? "d2" : "none");
+        ck_assert_msg(strstr(phks_last_error_message(), says), "%s",
+                      phks_last_error_message());
+        phks_signature *back;
+        ck_assert_int_eq(phks_db_get(db, hits[0].id, &back, NULL, 0, NULL, 0),
+                         PHKS_OK);
+        ck_assert_int_eq(back->options.global_descriptor, descriptors[d]);
+        ck_assert_int_eq(back->has_shape, d == 1);
+        ck_assert_mem_eq(back->shape, mine->shape, PHKS__SHAPE_BINS);
+        phks_signature_free(back);
+        phks_db_close(db);
+        phks_signature_free(mine);
+        phks_signature_free(other);
+    }
+    remove_dir(dir);
+}
+END_TEST
+
 /* Two handles on one new file: the second learns the options the first
  * committed, inside its own write transaction. */
 START_TEST(options_set_by_another_handle_are_refused)
@@ -1688,6 +1751,7 @@ int main(void)
     tcase_add_loop_test(c, round_trip, 0, 2);
     tcase_add_test(c, file_layout_is_as_documented);
     tcase_add_test(c, local_descriptor_is_the_databases);
+    tcase_add_test(c, global_descriptor_is_the_databases);
     tcase_add_test(c, query_equals_brute_force);
     tcase_add_test(c, parallel_scan_equals_brute_force);
     tcase_add_test(c, creatures_end_to_end);

@@ -48,6 +48,10 @@ START_TEST(tool_words_set_the_fields_the_manual_says)
     ck_assert_int_eq(o.local_descriptor, PHKS_LOCAL_DESCRIPTOR_HEAT);
     set(&o, "local-descriptor", "spin", cli);
     ck_assert_int_eq(o.local_descriptor, PHKS_LOCAL_DESCRIPTOR_SPIN);
+    set(&o, "global-descriptor", "d2", cli);
+    ck_assert_int_eq(o.global_descriptor, PHKS_GLOBAL_DESCRIPTOR_D2);
+    set(&o, "global-descriptor", "none", cli);
+    ck_assert_int_eq(o.global_descriptor, PHKS_GLOBAL_DESCRIPTOR_NONE);
     set(&o, "box", "axis-aligned", cli);
     ck_assert_int_eq(o.box, PHKS_BOX_AXIS_ALIGNED);
     set(&o, "solver", "arpack", cli);
@@ -84,6 +88,10 @@ START_TEST(python_words_are_the_fields_names)
     ck_assert_int_eq(o.local_descriptor, PHKS_LOCAL_DESCRIPTOR_HEAT);
     set(&o, "local_descriptor", "1", c);
     ck_assert_int_eq(o.local_descriptor, PHKS_LOCAL_DESCRIPTOR_SPIN);
+    set(&o, "global_descriptor", "d2", c);
+    ck_assert_int_eq(o.global_descriptor, PHKS_GLOBAL_DESCRIPTOR_D2);
+    set(&o, "global_descriptor", "0", c);
+    ck_assert_int_eq(o.global_descriptor, PHKS_GLOBAL_DESCRIPTOR_NONE);
     /* The other binding's words are not these. */
     uint32_t i;
     ck_assert_int_eq(phks_option_find("hks-scaling", c, &i),
@@ -107,6 +115,7 @@ START_TEST(every_option_reads_back_what_it_writes)
     changed.scale_count = 2;
     changed.threads = 7;
     changed.local_descriptor = PHKS_LOCAL_DESCRIPTOR_SPIN;
+    changed.global_descriptor = PHKS_GLOBAL_DESCRIPTOR_D2;
     const phks_options *sources[2] = {NULL, &changed};
     phks_options defaults;
     phks_options_init(&defaults);
@@ -114,9 +123,9 @@ START_TEST(every_option_reads_back_what_it_writes)
     uint32_t count = 0;
     while (phks_option_name(count, PHKS_SPELLING_C))
         count++;
-    /* The 19 fields a caller sets: every one but version, progress,
+    /* The 20 fields a caller sets: every one but version, progress,
      * progress_user and the reserved space. */
-    ck_assert_uint_eq(count, 19);
+    ck_assert_uint_eq(count, 20);
     ck_assert_ptr_null(phks_option_name(count, PHKS_SPELLING_CLI));
     for (size_t s = 0; s < 2; s++)
         for (size_t k = 0; k < 2; k++)
@@ -163,6 +172,7 @@ START_TEST(types_are_what_the_fields_hold)
         {"eigen_count", PHKS_OPTION_COUNT}, {"threads", PHKS_OPTION_COUNT},
         {"operator_kind", PHKS_OPTION_ENUM}, {"solver", PHKS_OPTION_ENUM},
         {"local_descriptor", PHKS_OPTION_ENUM},
+        {"global_descriptor", PHKS_OPTION_ENUM},
         {"scales", PHKS_OPTION_REALS},
     };
     for (size_t i = 0; i < sizeof expect / sizeof expect[0]; i++) {
@@ -226,6 +236,8 @@ START_TEST(bad_text_is_refused_and_changes_nothing)
         {"operator", "7", "unknown operator_kind 7"},
         {"local-descriptor", "7", "unknown local_descriptor 7"},
         {"local-descriptor", "hks", "not one of heat, spin"},
+        {"global-descriptor", "2", "unknown global_descriptor 2"},
+        {"global-descriptor", "D2", "not one of none, d2"},
         {"scales", "5,,20", "not a list of numbers"},
         {"scales", "5,-1", "scales[1] = -1"},
     };
@@ -330,6 +342,15 @@ START_TEST(compare_names_both_values_in_the_users_words)
     ck_assert_str_eq(detail, "matching nearest against verified");
     phks_options_compare(&b, &a, PHKS_SPELLING_C, detail, sizeof detail);
     ck_assert_str_eq(detail, "matching verified against nearest");
+    /* So is the global descriptor. */
+    phks_options_init(&a);
+    b = a;
+    b.global_descriptor = PHKS_GLOBAL_DESCRIPTOR_D2;
+    phks_options_compare(&a, &b, PHKS_SPELLING_CLI, detail, sizeof detail);
+    ck_assert_str_eq(detail, "global-descriptor none against d2");
+    a.matching = b.matching = PHKS_MATCHING_NEAREST;
+    ck_assert_int_eq(phks_options_compare(&a, &b, PHKS_SPELLING_C, NULL, 0),
+                     PHKS_OK);
     ck_assert_int_eq(phks_options_compare(NULL, &b, PHKS_SPELLING_C, NULL, 0),
                      PHKS_ERROR_INVALID_ARGUMENT);
     ck_assert_int_eq(phks_options_compare(&a, &b, PHKS_SPELLING_C, NULL, 8),

@@ -289,7 +289,8 @@ names = {"operator_kind": ("operator", ["literal", "random-walk"]),
          "hks_scaling": ("hks_scaling", ["none", "mean", "local-area"]),
          "quadrature": ("quadrature", ["vertices", "triangles"]),
          "matching": ("matching", ["nearest", "verified"]),
-         "local_descriptor": ("local_descriptor", ["heat", "spin"])}
+         "local_descriptor": ("local_descriptor", ["heat", "spin"]),
+         "global_descriptor": ("global_descriptor", ["none", "d2"])}
 check(all(names[k][1][opts[k]] == tool_opts[names[k][0]] for k in names),
       "phks_options enumerations: %s" % opts)
 check(all(opts[k + "_name"] == tool_opts[names[k][0]].replace("-", "_")

@@ -282,15 +282,17 @@ def mutate(rng, data, others, text=False):
 # ---------------------------------------------------------------------
 # Signature blobs (docs/formats.md): the options block, the scales, the
 # feature count, the features, (format 4) the layout, (format 5 with
-# spin images) the unit box's scale and the points' images, then a CRC-32
-# of every byte before it.
+# spin images) the unit box's scale and the points' images, (format 6
+# with D2) the shape distribution, then a CRC-32 of every byte before it.
 # ---------------------------------------------------------------------
 SPIN_BYTES = 100
+SHAPE_BINS = 32
 
 
 def header_size(fmt):
     return 52 + (12 if fmt >= 2 else 0) + (4 if fmt >= 3 else 0) + \
-        (4 if fmt >= 4 else 0) + (4 if fmt >= 5 else 0)
+        (4 if fmt >= 4 else 0) + (4 if fmt >= 5 else 0) + \
+        (4 if fmt >= 6 else 0)
 
 
 def blob_format(blob):
@@ -314,11 +316,24 @@ def with_field(blob, offset, fmt, value):
     return reseal(bytes(b))
 
 
+def d2_blob(heat):
+    """The format-6 blob of a format-4 one's signature made with the
+    shape distribution D2: both descriptors' fields (heat, d2) after the
+    matching, a distribution after the layout. Made here rather than by
+    the tool so that the blobs' part does not depend on how the
+    distribution is computed."""
+    shape = bytes(range(200, 200 - SHAPE_BINS, -1))
+    six = heat[:4] + struct.pack("<H", 6) + heat[6:72] + \
+        struct.pack("<II", 0, 1) + heat[72:-4] + shape + heat[-4:]
+    return reseal(six)
+
+
 def hostile_blobs(verified, nearest):
     """test_hostile.c's damaged blobs and more, resealed so that they pass
     the checksum and reach the checks behind it: (kind, blob, what the
-    error must say). verified: a format-4 blob (with its layout) or a
-    format-5 one (with its spin images too); nearest: a format-2 one."""
+    error must say). verified: a format-4 blob (with its layout), a
+    format-5 one (with its spin images too) or a format-6 one (with its
+    shape distribution); nearest: a format-2 one."""
     v, n = verified, nearest
     fmt = blob_format(v)
     features = count_offset(v) + 4
@@ -327,12 +342,13 @@ def hostile_blobs(verified, nearest):
     samples_at = features + count * (36 + 8 * scales)
     points = count + struct.unpack_from("<I", v, samples_at)[0]
     spin = fmt >= 5 and struct.unpack_from("<I", v, 72)[0] == 1
+    shape = fmt >= 6 and struct.unpack_from("<I", v, 76)[0] == 1
     out = [
         ("empty", b"", "shorter than any format"),
         ("seven bytes", v[:7], "shorter than any format"),
         ("header only", v[:header_size(fmt)], "bytes"),
         ("bad magic", b"PHKZ" + v[4:], "magic"),
-        ("newer format", with_field(v, 4, "<H", 6), "newer"),
+        ("newer format", with_field(v, 4, "<H", 7), "newer"),
         ("format 0", with_field(v, 4, "<H", 0), "format 0"),
         ("flags", with_field(v, 6, "<H", 1), "flags"),
         ("count lies", with_field(v, count_offset(v), "<I", 0xFFFFFFFF),
@@ -371,6 +387,12 @@ def hostile_blobs(verified, nearest):
         out += [("bad options", with_field(v, 72, "<I", 7), "need"),
                 ("bad options", with_field(v, 72, "<I", 0), "need"),
                 ("images cut", reseal(v[:-5] + v[-4:]), "need")]
+    if shape:
+        # Another global descriptor: no distribution, the size no longer
+        # fits.
+        out += [("bad options", with_field(v, 76, "<I", 7), "need"),
+                ("bad options", with_field(v, 76, "<I", 0), "need"),
+                ("shape cut", reseal(v[:-5] + v[-4:]), "need")]
     # Numbers no encoder writes, behind a right checksum.
     for what, offset, value in [("position", 4, float("inf")),
                                 ("persistence", 28, -1.0),
@@ -382,7 +404,8 @@ def hostile_blobs(verified, nearest):
                     with_field(v, features + offset, "<d", value),
                     "impossible number"))
     # The layout's last boundary distance and last geodesic one.
-    geodesic_end = len(v) - 4 - (8 + points * SPIN_BYTES if spin else 0)
+    geodesic_end = len(v) - 4 - (8 + points * SPIN_BYTES if spin else 0) - \
+        (SHAPE_BINS if shape else 0)
     boundary_end = geodesic_end - 4 * (points * (points - 1) // 2)
     for what, offset in (("boundary", boundary_end - 4),
                          ("geodesic", geodesic_end - 4)):
@@ -814,13 +837,16 @@ def part_blobs(pg, work, rng):
     nearest = [b for b in blobs if blob_format(b) == 2]
     heat = [b for b in verified if blob_format(b) == 4]
     spin = [b for b in verified if blob_format(b) == 5]
+    d2 = d2_blob(heat[-1])
     print("%d valid blobs: %s" % (len(valid), ", ".join(n for n, _ in valid)))
     corpus_blobs = corpus_inputs("fuzz_signature", "fuzz_db")
     fixed = [(kind, b, None) for kind, b in corpus_blobs] + \
+        [("format 6 with d2", d2, None)] + \
         hostile_blobs(heat[-1], nearest[0]) + \
-        hostile_blobs(spin[0], nearest[0])
+        hostile_blobs(spin[0], nearest[0]) + hostile_blobs(d2, nearest[0])
     # The corpus's blobs of older formats are mutated too.
-    bases = blobs + [b for kind, b in corpus_blobs if "signature" in kind]
+    bases = blobs + [d2] + \
+        [b for kind, b in corpus_blobs if "signature" in kind]
     inputs = fixed + flipped_bytes(rng, blobs, 300) + \
         mutated_blobs(rng, bases, 1700)
     load_table(pg, work, "inputs", [b for _, b, _ in inputs])

@@ -36,6 +36,8 @@ static value_names matching_values = {{"nearest", "verified", NULL},
                                       {"nearest", "verified", NULL}};
 static value_names local_descriptor_values = {{"heat", "spin", NULL},
                                               {"heat", "spin", NULL}};
+static value_names global_descriptor_values = {{"none", "d2", NULL},
+                                               {"none", "d2", NULL}};
 static value_names solver_values = {
     {"auto", "lanczos", "arpack", "dense", NULL},
     {"auto", "lanczos", "arpack", "dense", NULL}};
@@ -99,6 +101,10 @@ static const struct option_row {
      * NEAREST signatures have none and score alike under either value. */
     VERIFIED_ROW("local_descriptor", "local-descriptor", local_descriptor,
                  &local_descriptor_values),
+    /* Since 0.3.0: the shape distribution sits beside VERIFIED
+     * signatures' layout and only the verified score reads it. */
+    VERIFIED_ROW("global_descriptor", "global-descriptor", global_descriptor,
+                 &global_descriptor_values),
 #undef VERIFIED_ROW
 #undef ROW
 };

@@ -141,6 +141,12 @@ phks_status phks__options_resolve(const phks_options *user, phks_options *out)
         return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "options: unknown local_descriptor %d",
                          (int)out->local_descriptor);
+    /* Checked with NEAREST too, for the same reason. */
+    if (out->global_descriptor != PHKS_GLOBAL_DESCRIPTOR_NONE &&
+        out->global_descriptor != PHKS_GLOBAL_DESCRIPTOR_D2)
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
+                         "options: unknown global_descriptor %d",
+                         (int)out->global_descriptor);
     if (out->threads > 1024)
         return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "options: threads %u above 1024", out->threads);

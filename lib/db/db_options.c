@@ -28,6 +28,10 @@ static phks_status options_blob(const phks_options *options, void **blob,
             return st;
         }
         sig->boundary[0] = 0;
+        /* Its zero histogram stands for a D2 signature's, as the zero
+         * spin images alloc_layout gives for a SPIN one's. */
+        sig->has_shape =
+            options->global_descriptor == PHKS_GLOBAL_DESCRIPTOR_D2;
     }
     sig->vertex[0] = 0;
     memset(sig->position, 0, 3 * sizeof *sig->position);

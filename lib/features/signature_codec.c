@@ -10,6 +10,7 @@
  *   (format 3 on:) u32 quadrature
  *   (format 4 on:) u32 matching
  *   (format 5 on:) u32 local_descriptor
+ *   (format 6 on:) u32 global_descriptor
  *   f64 scales[scale_count]
  *   u32 count, then per feature:
  *     u32 vertex  f64 x y z  f64 persistence  f64 vector[scale_count]
@@ -23,20 +24,26 @@
  *   points' straight-line distances there are known), then
  *   u8 spin[p * PHKS__SPIN_BYTES], each point's images as sig->spin holds
  *   them, features first
+ *   (format 6 on, matching VERIFIED, global_descriptor D2:)
+ *   u8 shape[PHKS__SHAPE_BINS], the shape distribution as sig->shape
+ *   holds it
  *   u32 CRC-32 of every byte before it
  * A reader refuses a format number above its own rather than guess
  * (unless the blob is too short for any format: SMALLEST_BLOB), and
  * reads every older one: format 1 blobs predate the two format-2 fields and
  * were made with them zero, format 2 ones predate the quadrature (0, the
  * vertices'), format 3 ones the matching (0, the nearest), format 4 ones
- * the local descriptor (0, the heat vectors). The writer uses the oldest
- * format that holds the options: format 2 while quadrature and matching
- * are 0, so that a signature made without them has the bytes it had
- * before (and older readers still read it). Format 5 only for VERIFIED
- * signatures with a local descriptor other than HEAT: NEAREST ignores the
- * local descriptor, so its blobs leave it out, keep their old bytes and
- * decode with HEAT, whatever value the signature was made with (the two
- * score alike; phks__options_difference does not compare it there).
+ * the local descriptor (0, the heat vectors), format 5 ones the global
+ * descriptor (0, none). The writer uses the oldest format that holds the
+ * options: format 2 while quadrature and matching are 0, so that a
+ * signature made without them has the bytes it had before (and older
+ * readers still read it). Format 5 only for VERIFIED signatures with a
+ * local descriptor other than HEAT, format 6 only for VERIFIED ones with
+ * a global descriptor other than NONE (it then holds the local
+ * descriptor too, whatever it is): NEAREST ignores both descriptors, so
+ * its blobs leave them out, keep their old bytes and decode with HEAT and
+ * NONE, whatever values the signature was made with (they score alike;
+ * phks__options_difference does not compare them there).
  */
 #include "features/features.h"
 
@@ -44,12 +51,13 @@
 #include <stdio.h>
 #include <string.h>
 
-#define FORMAT 5
+#define FORMAT 6
 #define HEADER_SIZE_1 (4 + 2 + 2 + 8 + 8 + 4 + 4 + 8 + 4 + 4 + 4)
 #define FORMAT_2_FIELDS (8 + 4)
 #define FORMAT_3_FIELDS 4
 #define FORMAT_4_FIELDS 4
 #define FORMAT_5_FIELDS 4
+#define FORMAT_6_FIELDS 4
 #define FEATURE_FIXED (4 + 3 * 8 + 8)
 /* Every format, this library's and later ones, starts with format 1's
  * header (later formats add their fields after it) and ends with the
@@ -62,7 +70,8 @@ static size_t header_size(unsigned format)
     return HEADER_SIZE_1 + (format >= 2 ? FORMAT_2_FIELDS : 0) +
            (format >= 3 ? FORMAT_3_FIELDS : 0) +
            (format >= 4 ? FORMAT_4_FIELDS : 0) +
-           (format >= 5 ? FORMAT_5_FIELDS : 0);
+           (format >= 5 ? FORMAT_5_FIELDS : 0) +
+           (format >= 6 ? FORMAT_6_FIELDS : 0);
 }
 
 /* Whether a signature made with o carries spin images: they sit beside
@@ -73,10 +82,18 @@ static bool has_spin(const phks_options *o)
            o->local_descriptor == PHKS_LOCAL_DESCRIPTOR_SPIN;
 }
 
-/* samples is SIZE_MAX for a signature without a layout (NEAREST); spin
- * whether the layout is followed by the points' spin images. */
+/* Whether a signature made with o carries a shape distribution: it sits
+ * beside the layout too, and only the verified score reads it. */
+static bool carries_shape(const phks_options *o)
+{
+    return o->matching == PHKS_MATCHING_VERIFIED &&
+           o->global_descriptor == PHKS_GLOBAL_DESCRIPTOR_D2;
+}
+
+/* samples is SIZE_MAX for a signature without a layout (NEAREST), and o
+ * is then not read; with a layout, o says which descriptors follow it. */
 static size_t blob_size(unsigned format, size_t scales, size_t count,
-                        size_t samples, bool spin)
+                        size_t samples, const phks_options *o)
 {
     size_t size = header_size(format) + 8 * scales + 4 +
                   count * (FEATURE_FIXED + 8 * scales) + 4;
@@ -85,7 +102,8 @@ static size_t blob_size(unsigned format, size_t scales, size_t count,
     size_t points = count + samples;
     return size + 4 + samples * (4 + 12 + 4 * scales) + 4 * points +
            4 * phks__pair_count(points) +
-           (spin ? 8 + points * PHKS__SPIN_BYTES : 0);
+           (has_spin(o) ? 8 + points * PHKS__SPIN_BYTES : 0) +
+           (carries_shape(o) ? PHKS__SHAPE_BINS : 0);
 }
 
 static size_t layout_samples(const phks_signature *sig)
@@ -162,11 +180,12 @@ static double get_f64(const unsigned char **p)
 /* The oldest format that holds sig's options (see the top comment). */
 static unsigned format_of(const phks_signature *sig)
 {
-    if (sig->options.matching != PHKS_MATCHING_NEAREST)
-        return sig->options.local_descriptor != PHKS_LOCAL_DESCRIPTOR_HEAT
-                   ? 5
-                   : 4;
-    return sig->options.quadrature != PHKS_QUADRATURE_VERTICES ? 3 : 2;
+    const phks_options *o = &sig->options;
+    if (o->matching == PHKS_MATCHING_NEAREST)
+        return o->quadrature != PHKS_QUADRATURE_VERTICES ? 3 : 2;
+    if (o->global_descriptor != PHKS_GLOBAL_DESCRIPTOR_NONE)
+        return 6;
+    return o->local_descriptor != PHKS_LOCAL_DESCRIPTOR_HEAT ? 5 : 4;
 }
 
 static unsigned char *put_layout(unsigned char *p, const phks_signature *sig)
@@ -190,6 +209,10 @@ static unsigned char *put_layout(unsigned char *p, const phks_signature *sig)
         memcpy(p, sig->spin, points * PHKS__SPIN_BYTES);
         p += points * PHKS__SPIN_BYTES;
     }
+    if (carries_shape(&sig->options)) {
+        memcpy(p, sig->shape, PHKS__SHAPE_BINS);
+        p += PHKS__SHAPE_BINS;
+    }
     return p;
 }
 
@@ -211,13 +234,17 @@ static void get_layout(const unsigned char *p, phks_signature *sig)
     if (has_spin(&sig->options)) {
         sig->unit_scale = get_f64(&p);
         memcpy(sig->spin, p, points * PHKS__SPIN_BYTES);
+        p += points * PHKS__SPIN_BYTES;
     }
+    sig->has_shape = carries_shape(&sig->options);
+    if (sig->has_shape)
+        memcpy(sig->shape, p, PHKS__SHAPE_BINS);
 }
 
 size_t phks_signature_encoded_size(const phks_signature *sig)
 {
     return sig ? blob_size(format_of(sig), sig->length, sig->count,
-                           layout_samples(sig), has_spin(&sig->options))
+                           layout_samples(sig), &sig->options)
                : 0;
 }
 
@@ -235,9 +262,13 @@ phks_status phks_signature_encode(const phks_signature *sig, void *buffer,
         return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
                          "phks_signature_encode: a spin-image signature "
                          "without its images");
+    if (carries_shape(&sig->options) && !sig->has_shape)
+        return phks__fail(PHKS_ERROR_INVALID_ARGUMENT,
+                         "phks_signature_encode: a D2 signature without its "
+                         "shape distribution");
     const unsigned format = format_of(sig);
     size_t need = blob_size(format, sig->length, sig->count,
-                            layout_samples(sig), has_spin(&sig->options));
+                            layout_samples(sig), &sig->options);
     *size = need;
     if (capacity < need)
         return phks__fail(PHKS_ERROR_BUFFER_TOO_SMALL,
@@ -264,6 +295,8 @@ phks_status phks_signature_encode(const phks_signature *sig, void *buffer,
         p = put_u32(p, (uint32_t)o->matching);
     if (format >= 5)
         p = put_u32(p, (uint32_t)o->local_descriptor);
+    if (format >= 6)
+        p = put_u32(p, (uint32_t)o->global_descriptor);
     for (uint32_t s = 0; s < o->scale_count; s++)
         p = put_f64(p, o->scales[s]);
     p = put_u32(p, (uint32_t)sig->count);
@@ -375,6 +408,9 @@ phks_status phks_signature_decode(const void *buffer, size_t size,
     o.local_descriptor = PHKS_LOCAL_DESCRIPTOR_HEAT;
     if (format >= 5)
         o.local_descriptor = (int32_t)get_u32(&p);
+    o.global_descriptor = PHKS_GLOBAL_DESCRIPTOR_NONE;
+    if (format >= 6)
+        o.global_descriptor = (int32_t)get_u32(&p);
     if (o.scale_count < 1 || o.scale_count > PHKS_MAX_SCALES)
         return phks__fail(PHKS_ERROR_CORRUPT, "signature blob: %u scales",
                          o.scale_count);
@@ -386,7 +422,7 @@ phks_status phks_signature_decode(const void *buffer, size_t size,
     /* The samples' count sits after the features. */
     size_t samples = SIZE_MAX;
     size_t features_end =
-        blob_size(format, o.scale_count, count, SIZE_MAX, false) - 4;
+        blob_size(format, o.scale_count, count, SIZE_MAX, &o) - 4;
     if (o.matching == PHKS_MATCHING_VERIFIED) {
         if (size < features_end + 4)
             return phks__fail(PHKS_ERROR_TRUNCATED,
@@ -398,8 +434,7 @@ phks_status phks_signature_decode(const void *buffer, size_t size,
             return phks__fail(PHKS_ERROR_CORRUPT,
                              "signature blob: %zu samples", samples);
     }
-    size_t need = blob_size(format, o.scale_count, count, samples,
-                            has_spin(&o));
+    size_t need = blob_size(format, o.scale_count, count, samples, &o);
     if (size < need)
         return phks__fail(PHKS_ERROR_TRUNCATED,
                          "signature blob: %zu bytes, %u features need %zu",
@@ -420,7 +455,7 @@ phks_status phks_signature_decode(const void *buffer, size_t size,
         count, samples == SIZE_MAX ? 0 : samples, o.scale_count, &sig);
     if (st != PHKS_OK)
         return st;
-    /* Before the layout: the options say whether it has spin images. */
+    /* Before the layout: the options say which descriptors it has. */
     sig->options = o;
     if (samples != SIZE_MAX) {
         st = phks__signature_alloc_layout(sig);

@@ -253,6 +253,32 @@ def test_local_descriptor_option(creature_mesh, creature_signature):
         phks.signature(creature_mesh, local_descriptor="hks")
 
 
+def test_global_descriptor_option(creature_mesh, creature_signature,
+                                  creature_nearest):
+    assert phks.default_options()["global_descriptor"] == "none"
+    assert creature_signature.options["global_descriptor"] == "none"
+    d2 = phks.signature(creature_mesh, global_descriptor="d2")
+    assert d2.options["global_descriptor"] == "d2"
+    assert phks.signature(creature_mesh, global_descriptor=1,
+                          feature_count=3).options["global_descriptor"] == \
+        "d2"
+    # Verified signatures of other global descriptors do not compare.
+    with pytest.raises(phks.Error) as e:
+        phks.score(creature_signature, d2)
+    assert e.value.status == phks.Status.INCOMPATIBLE
+    assert "global_descriptor none against d2" in e.value.message
+    with pytest.raises(ValueError):
+        phks.signature(creature_mesh, global_descriptor="D2")
+    # NEAREST ignores it: the blob leaves it out (the bytes of NONE's) and
+    # decodes with "none" (docs/formats.md, format 6).
+    nearest = phks.signature(creature_mesh, matching="nearest",
+                             global_descriptor="d2")
+    assert nearest.encode() == creature_nearest.encode()
+    assert phks.decode(nearest.encode()).options["global_descriptor"] == \
+        "none"
+    assert phks.score(nearest, creature_nearest) == 0
+
+
 def test_verified_score_is_asymmetric(creature_signature, other_signature):
     a, b = creature_signature, other_signature
     assert phks.score(a, a) == pytest.approx(0, abs=1e-12)

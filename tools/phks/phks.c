@@ -26,6 +26,10 @@ static const char usage_text[] =
     "                                      verified matching checks: the HKS\n"
     "                                      vectors, or spin images too (heat;\n"
     "                                      ignored with --matching nearest)\n"
+    "  --global-descriptor none|d2         a term of the whole shape in the\n"
+    "                                      verified score: none, or the\n"
+    "                                      shape distribution D2 (none;\n"
+    "                                      ignored with --matching nearest)\n"
     "  --threads N                         0 = one per CPU (0)\n"
     "  --object NAME                       read only this OBJ object or group,\n"
     "                                      or glTF/FBX/... node or mesh\n"
@@ -63,7 +67,8 @@ static const char usage_text[] =
 static const char *const globals[] = {"--operator", "--threads",
                                       "--boundary-margin", "--hks-scaling",
                                       "--quadrature", "--matching",
-                                      "--local-descriptor", "--object"};
+                                      "--local-descriptor",
+                                      "--global-descriptor", "--object"};
 
 /* Global options without a value. */
 static int take_flag(const char *arg)

@@ -76,10 +76,12 @@ void cli_json_options(const phks_options *o)
     cli_json_number(o->boundary_margin);
     printf(", \"hks_scaling\": \"%s\", \"quadrature\": \"%s\", "
            "\"matching\": \"%s\", \"local_descriptor\": \"%s\", "
+           "\"global_descriptor\": \"%s\", "
            "\"simplify_above\": %u, \"simplify_target\": %u}",
            cli_value_name("hks-scaling", o->hks_scaling),
            cli_value_name("quadrature", o->quadrature),
            cli_value_name("matching", o->matching),
            cli_value_name("local-descriptor", o->local_descriptor),
+           cli_value_name("global-descriptor", o->global_descriptor),
            o->simplify_above, o->simplify_target);
 }

@@ -22,9 +22,16 @@ const char *cli_value_name(const char *option, int32_t value)
 
 void cli_print_options(FILE *out, const char *prefix, const phks_options *o)
 {
+    /* NEAREST ignores the descriptors: not shown there. */
+    char descriptors[96] = "";
+    if (o->matching == PHKS_MATCHING_VERIFIED)
+        snprintf(descriptors, sizeof descriptors,
+                 ", local descriptor %s, global descriptor %s",
+                 cli_value_name("local-descriptor", o->local_descriptor),
+                 cli_value_name("global-descriptor", o->global_descriptor));
     fprintf(out, "%soperator %s, box %s, tau %g, cutoff %g, eigenpairs %u, "
             "features %u at %g tau, %u scales (%g..%g tau), boundary margin "
-            "%g, HKS scaling %s, quadrature %s, matching %s%s%s, HKS-simp "
+            "%g, HKS scaling %s, quadrature %s, matching %s%s, HKS-simp "
             "above %u vertices (target %u)\n",
             prefix, cli_value_name("operator", o->operator_kind),
             cli_value_name("box", o->box),
@@ -34,13 +41,7 @@ void cli_print_options(FILE *out, const char *prefix, const phks_options *o)
             o->boundary_margin,
             cli_value_name("hks-scaling", o->hks_scaling),
             cli_value_name("quadrature", o->quadrature),
-            cli_value_name("matching", o->matching),
-            /* NEAREST ignores the local descriptor: not shown there. */
-            o->matching == PHKS_MATCHING_VERIFIED ? ", local descriptor "
-                                                  : "",
-            o->matching == PHKS_MATCHING_VERIFIED
-                ? cli_value_name("local-descriptor", o->local_descriptor)
-                : "",
+            cli_value_name("matching", o->matching), descriptors,
             o->simplify_above, o->simplify_target);
 }
 
