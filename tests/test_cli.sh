@@ -614,6 +614,18 @@ run "$phks" --global-descriptor d2 db query t.db box.off; expect_rc 1 \
 expect_err "^phks: t.db: the options given are not the database's: --global-descriptor d2 against none "
 run "$phks" db info t.db; expect_rc 0 "db info"
 expect_out "matching verified, local descriptor heat, global descriptor none, HKS-simp"
+run "$phks" --global-descriptor d2 signature a.off -o d2.sig; expect_rc 0 \
+    "a d2 blob"
+run "$phks" --global-descriptor d2 match d2.sig b.off; expect_rc 0 \
+    "match of a d2 blob"
+head -n 1 out > d2_blob_line
+run "$phks" --global-descriptor d2 match a.off b.off; expect_rc 0 \
+    "d2 match of meshes"
+head -n 1 out | cmp -s - d2_blob_line ||
+    fail "a d2 blob scores other than its mesh: $(cat d2_blob_line)"
+run "$phks" match a.off b.off; expect_rc 0 "match without d2"
+head -n 1 out | cmp -s - d2_blob_line &&
+    fail "d2 leaves the score as it was: $(cat d2_blob_line)"
 run "$phks" --matching nearest --global-descriptor d2 signature box.off \
     -o dn.sig; expect_rc 0 "a nearest signature leaves the global descriptor out"
 run "$phks" --matching nearest match dn.sig box.off; expect_rc 0 \

@@ -269,6 +269,13 @@ def test_global_descriptor_option(creature_mesh, creature_signature,
     assert "global_descriptor none against d2" in e.value.message
     with pytest.raises(ValueError):
         phks.signature(creature_mesh, global_descriptor="D2")
+    # A D2 blob keeps its distribution: it decodes to the same bytes and
+    # scores as the signature it came from.
+    blob = d2.encode()
+    assert len(blob) == len(creature_signature.encode()) + 8 + 32
+    back = phks.decode(blob)
+    assert back.encode() == blob
+    assert phks.score(back, d2) == phks.score(d2, d2)
     # NEAREST ignores it: the blob leaves it out (the bytes of NONE's) and
     # decodes with "none" (docs/formats.md, format 6).
     nearest = phks.signature(creature_mesh, matching="nearest",
