@@ -14,7 +14,9 @@
  * one-to-one set whose members each agree with most of those taken
  * before them. Its affinity over the most a query of its size can reach
  * is the share Q of the query that b explains, and the score is the
- * paper's nearest-L1 score times 1 - Q.
+ * paper's nearest-L1 score times 1 - Q (and, with the shape distribution
+ * D2, times how far apart the two whole shapes' distributions are:
+ * docs/method.md section 16).
  *
  * The scale is not known: the unit box of a cut shape enlarges what is
  * left of it. Every s = 2^(k/4), |k| <= SCALE_STEPS, is tried and the
