@@ -516,6 +516,17 @@ static size_t nearest_points(const double *row, size_t nb, size_t per,
     return given + have;
 }
 
+/* The own affinity of feature i of a and point j of b at the scale
+ * proposed: the better of the two descriptors' with spin images. */
+static double own_affinity(const phks__verifier *c, size_t i, size_t j)
+{
+    size_t at = i * c->nb + j;
+    double u = proposal_affinity(c->dist[at], false, c->length);
+    if (c->spin)
+        u = fmax(u, proposal_affinity(c->dist_image[at], true, c->length));
+    return u;
+}
+
 /* Each query feature's CANDIDATES nearest entry points by vector (lower
  * index first on ties), and with spin images first the CANDIDATES
  * nearest by image: the images find a point's own counterpart, the
@@ -540,9 +551,7 @@ static void propose(phks__verifier *c)
         have = nearest_points(row, nb, per, mine, have);
         for (size_t m = 0; m < have; m++) {
             uint32_t j = mine[m].j;
-            double u = proposal_affinity(row[j], false, c->length);
-            if (c->spin)
-                u = fmax(u, proposal_affinity(image[j], true, c->length));
+            double u = own_affinity(c, i, j);
             mine[m] = (proposal){(uint32_t)i, j, u, sqrt(u)};
         }
         c->count += have;
@@ -938,13 +947,8 @@ void phks__verifier_run(phks__verifier *c, const phks_signature *b,
 static void keep_best_affinities(const phks__verifier *c, size_t i,
                                  double *best)
 {
-    for (size_t j = 0; j < c->nb; j++) {
-        double u = proposal_affinity(c->dist[i * c->nb + j], false, c->length);
-        if (c->spin)
-            u = fmax(u, proposal_affinity(c->dist_image[i * c->nb + j], true,
-                                          c->length));
-        best[j] = fmax(best[j], u);
-    }
+    for (size_t j = 0; j < c->nb; j++)
+        best[j] = fmax(best[j], own_affinity(c, i, j));
 }
 
 phks_status phks__candidates(const phks_signature *a, size_t feature,

@@ -89,7 +89,9 @@ static double mean_distance(const double *points, size_t n)
     return sum / ((double)n * (double)(n - 1) / 2);
 }
 
-/* Each pair's distance, in units of mean, counted into its bin. */
+/* Each pair's distance, in units of mean, counted into its bin. The
+ * distances are computed again rather than kept from mean_distance: 2.1
+ * million of them would be 17 MB for a few milliseconds saved. */
 static void count_pairs(const double *points, size_t n, double mean,
                         uint64_t *count)
 {
