@@ -516,6 +516,38 @@ static phks_signature *verified_synthetic(size_t count, uint64_t *seed,
     return sig;
 }
 
+/* A file of `mine` refuses `other` as an entry and, read by a fresh
+ * handle, as a query, the message saying `says`; returns mine as the file
+ * gives it back, for the option's own checks. */
+static phks_signature *kept_and_refused(const char *path,
+                                        const phks_signature *mine,
+                                        const phks_signature *other,
+                                        const char *says)
+{
+    phks_db *db;
+    ck_assert_int_eq(phks_db_open(path, PHKS_DB_CREATE, &db), PHKS_OK);
+    ck_assert_int_eq(phks_db_add(db, "mine", NULL, mine, NULL), PHKS_OK);
+    ck_assert_int_eq(phks_db_add(db, "other", NULL, other, NULL),
+                     PHKS_ERROR_INCOMPATIBLE);
+    phks_db_close(db);
+    /* A fresh handle reads the options back from the file. */
+    ck_assert_int_eq(phks_db_open(path, PHKS_DB_READONLY, &db), PHKS_OK);
+    phks_hit hits[2];
+    size_t count = 0;
+    ck_assert_int_eq(phks_db_query(db, mine, 2, hits, &count), PHKS_OK);
+    ck_assert_uint_eq(count, 1);
+    ck_assert_str_eq(hits[0].name, "mine");
+    ck_assert_int_eq(phks_db_query(db, other, 2, hits + 1, &count),
+                     PHKS_ERROR_INCOMPATIBLE);
+    ck_assert_msg(strstr(phks_last_error_message(), says), "%s",
+                  phks_last_error_message());
+    phks_signature *back;
+    ck_assert_int_eq(phks_db_get(db, hits[0].id, &back, NULL, 0, NULL, 0),
+                     PHKS_OK);
+    phks_db_close(db);
+    return back;
+}
+
 /* The local descriptor is one of a database's options, between VERIFIED
  * signatures: a file of HEAT signatures (0.2.0's: format-4 blobs, the
  * bytes test_codec.c pins) opens, answers HEAT queries and refuses SPIN
@@ -533,35 +565,15 @@ START_TEST(local_descriptor_is_the_databases)
         phks_signature *mine = verified_synthetic(6, &seed, descriptors[d]);
         phks_signature *other =
             verified_synthetic(6, &seed, descriptors[1 - d]);
-        phks_db *db;
-        ck_assert_int_eq(phks_db_open(path, PHKS_DB_CREATE, &db), PHKS_OK);
-        ck_assert_int_eq(phks_db_add(db, "mine", NULL, mine, NULL), PHKS_OK);
-        ck_assert_int_eq(phks_db_add(db, "other", NULL, other, NULL),
-                         PHKS_ERROR_INCOMPATIBLE);
-        phks_db_close(db);
-        /* A fresh handle reads the options back from the file. */
-        ck_assert_int_eq(phks_db_open(path, PHKS_DB_READONLY, &db), PHKS_OK);
-        phks_hit hits[2];
-        size_t count = 0;
-        ck_assert_int_eq(phks_db_query(db, mine, 2, hits, &count), PHKS_OK);
-        ck_assert_uint_eq(count, 1);
-        ck_assert_str_eq(hits[0].name, "mine");
-        ck_assert_int_eq(phks_db_query(db, other, 2, hits, &count),
-                         PHKS_ERROR_INCOMPATIBLE);
         char says[64];
         snprintf(says, sizeof says, "local_descriptor %s against %s",
                  d ? "heat" : "spin", d ? "spin" : "heat");
-        ck_assert_msg(strstr(phks_last_error_message(), says), "%s",
-                      phks_last_error_message());
-        phks_signature *back;
-        ck_assert_int_eq(phks_db_get(db, hits[0].id, &back, NULL, 0, NULL, 0),
-                         PHKS_OK);
+        phks_signature *back = kept_and_refused(path, mine, other, says);
         ck_assert_int_eq(back->options.local_descriptor, descriptors[d]);
         ck_assert_int_eq(back->spin != NULL, d == 1);
         if (back->spin)
             ck_assert_mem_eq(back->spin, mine->spin, 6 * PHKS__SPIN_BYTES);
         phks_signature_free(back);
-        phks_db_close(db);
         phks_signature_free(mine);
         phks_signature_free(other);
     }
@@ -598,33 +610,14 @@ START_TEST(global_descriptor_is_the_databases)
         snprintf(path, sizeof path, "%s/%d.db", dir, d);
         phks_signature *mine = global_synthetic(&seed, descriptors[d]);
         phks_signature *other = global_synthetic(&seed, descriptors[1 - d]);
-        phks_db *db;
-        ck_assert_int_eq(phks_db_open(path, PHKS_DB_CREATE, &db), PHKS_OK);
-        ck_assert_int_eq(phks_db_add(db, "mine", NULL, mine, NULL), PHKS_OK);
-        ck_assert_int_eq(phks_db_add(db, "other", NULL, other, NULL),
-                         PHKS_ERROR_INCOMPATIBLE);
-        phks_db_close(db);
-        /* A fresh handle reads the options back from the file. */
-        ck_assert_int_eq(phks_db_open(path, PHKS_DB_READONLY, &db), PHKS_OK);
-        phks_hit hits[2];
-        size_t count = 0;
-        ck_assert_int_eq(phks_db_query(db, mine, 2, hits, &count), PHKS_OK);
-        ck_assert_uint_eq(count, 1);
-        ck_assert_int_eq(phks_db_query(db, other, 2, hits + 1, &count),
-                         PHKS_ERROR_INCOMPATIBLE);
         char says[64];
         snprintf(says, sizeof says, "global_descriptor %s against %s",
                  d ? "none" : "d2", d ? "d2" : "none");
-        ck_assert_msg(strstr(phks_last_error_message(), says), "%s",
-                      phks_last_error_message());
-        phks_signature *back;
-        ck_assert_int_eq(phks_db_get(db, hits[0].id, &back, NULL, 0, NULL, 0),
-                         PHKS_OK);
+        phks_signature *back = kept_and_refused(path, mine, other, says);
         ck_assert_int_eq(back->options.global_descriptor, descriptors[d]);
         ck_assert_int_eq(back->has_shape, d == 1);
         ck_assert_mem_eq(back->shape, mine->shape, PHKS__SHAPE_BINS);
         phks_signature_free(back);
-        phks_db_close(db);
         phks_signature_free(mine);
         phks_signature_free(other);
     }
