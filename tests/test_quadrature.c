@@ -545,8 +545,9 @@ static double nearest_distance(const phks_signature *a, size_t i,
  * fine box at a vertex of the coarse box) the nearest distances alone stay
  * below a fifth of the fine box's against the cylinder: each feature's
  * distance to its nearest by vector, whichever corner the verification
- * paired it with (the corners are congruent, so their spin images are
- * equal), against the paper's score, which sums the same distances. */
+ * paired it with (the corners are congruent: spin images, where they
+ * propose, cannot tell them apart), against the paper's score, which sums
+ * the same distances. */
 START_TEST(box_scores)
 {
     phks_mesh *coarse = coarse_box(), *fine = fine_box();

@@ -120,10 +120,10 @@ static size_t nearest_feature(const phks_signature *s, const double *v,
  * leaves one feature of each signature without its twin: at most two of
  * the pairs (one each way) may miss. Where the same vertex is picked,
  * its position is the moved one. The twins are looked for by vector, not
- * through phks_match: with the default spin images the verified partner
- * of a feature on a symmetric creature may be its mirror twin, whose
+ * through phks_match: a verified partner may be a mirror twin, whose
  * vector is only nearly equal (the generated meshes are not exactly
- * symmetric). */
+ * symmetric), and with spin images (PHKS_LOCAL_DESCRIPTOR_SPIN), which
+ * cannot tell the two apart, it is one for 6 of the 30 pairs. */
 START_TEST(invariant_to_rigid_motion_and_scale)
 {
     unsigned kind = (unsigned)_i;
@@ -207,12 +207,11 @@ static double kind_separation(const phks_options *o)
 
 /* The method's promise on generated shapes: another pose of the same kind
  * scores closer than any other kind. With the paper's plain HKS values at
- * least four times closer (measured with the default spin images: 7.1 for
- * the plier, whose hinge moves its jaws, 88-298 for the others; 4.2 and
- * 16-47 with the HKS vectors proposing, as 0.2.0); with the default
- * logarithms, whose distances weigh the large scales as much as the small
- * ones, at least 1.5 times (measured: 3.2 for the plier, 16-243; 2.0 and
- * 4.7-35 with the HKS vectors proposing). */
+ * least four times closer (measured: 4.2 for the plier, whose hinge moves
+ * its jaws, 16-47 for the others); with the default logarithms, whose
+ * distances weigh the large scales as much as the small ones, at least 1.5
+ * times (measured: 2.0 for the plier, 4.7-35; with spin images proposing,
+ * 3.2 and 16-243). */
 START_TEST(poses_score_far_closer_than_kinds)
 {
     phks_options plain;

@@ -64,10 +64,10 @@ END_TEST
 
 /* Q = 1 - score / nearest of the public scores, and the verified rows of
  * phks_match, in both directions: strictly between 0 and 1, and at most
- * every feature verified. (With the default spin images a quadruped's
+ * every feature verified. (With spin images proposing, a quadruped's
  * limbs, neck and head find a consistent set on a humanoid, so the count
  * may reach every feature: the similarity is what tells the kinds apart,
- * kinds_apart below.) */
+ * test_signature.c's poses_score_far_closer_than_kinds.) */
 START_TEST(two_kinds_lie_between)
 {
     phks_signature *a = creature(SHAPE_QUADRUPED, PHKS_MATCHING_VERIFIED);
@@ -168,9 +168,10 @@ START_TEST(database_entry_gives_the_same)
 END_TEST
 
 /* Against itself a feature's own point is proposed at affinity 1, first
- * but for ties: the quadruped's features left and right (and front and
- * back) of it have equal spin images, quantised to the same bytes, in
- * groups of two and four, and equal descriptions go to the lower index. Most alike first, every affinity
+ * but for ties: with spin images the quadruped's features left and right
+ * (and front and back) of it have equal images, quantised to the same
+ * bytes, in groups of two and four, and equal descriptions go to the
+ * lower index. Most alike first, every affinity
  * in (0, 1]. */
 START_TEST(candidates_of_itself_start_with_the_feature)
 {
