@@ -260,7 +260,7 @@ typedef enum phks_local_descriptor {
      * alone. Orientation-free (the normal's sign is taken from the
      * surface itself), so triangle soups with inconsistent winding get
      * the same images. 100 more bytes per point in a blob
-     * (docs/method.md section 15), and a verified score takes about six
+     * (docs/method.md section 15), and a verified score takes about five
      * times as long (docs/benchmarks.md). */
     PHKS_LOCAL_DESCRIPTOR_SPIN = 1
 } phks_local_descriptor;

@@ -177,6 +177,21 @@ static inline double agreement(double ga, double gb, double e)
     return fabs(e) < 3 ? exp(-e * e) : 0;
 }
 
+/* The better of two agreements, agreement(ga, gb, e) and
+ * agreement(sa, sb, es), with one exponential: exp(-e^2) falls as |e|
+ * grows, so the better is that of the smaller |e| among those that
+ * count; the same bits as taking the larger of both. */
+static inline double better_agreement(double ga, double gb, double e,
+                                      double sa, double sb, double es)
+{
+    bool first = isfinite(ga) && isfinite(gb) && fabs(e) < 3;
+    bool second = isfinite(sa) && isfinite(sb) && fabs(es) < 3;
+    if (!first && !second)
+        return 0;
+    double x = !second || (first && fabs(e) <= fabs(es)) ? e : es;
+    return exp(-x * x);
+}
+
 /* The matrix entry of proposals x and y that share no point, given how
  * well their distances agree: at most the geometric mean of their own
  * affinities. The product runs in the order of the arguments. */
@@ -567,12 +582,14 @@ static double set_pair_weight(const phks__verifier *c, const proposal *x,
 {
     double ga = c->ga[x->i * c->na + y->i];
     double gb = c->gb_scaled[x->j * c->nb + y->j];
-    double agreed = agreement(ga, gb, disagreement(ga, gb, c->slack));
+    double e = disagreement(ga, gb, c->slack), agreed;
     if (c->straight) {
         double sa = c->sa[x->i * c->na + y->i];
         double sb = c->sb_scaled[x->j * c->nb + y->j];
-        agreed = fmax(agreed, agreement(sa, sb, straight_disagreement(
-                                                    sa, sb, c->slack)));
+        agreed = better_agreement(ga, gb, e, sa, sb,
+                                  straight_disagreement(sa, sb, c->slack));
+    } else {
+        agreed = agreement(ga, gb, e);
     }
     return pair_weight(agreed, x, y);
 }
@@ -638,11 +655,14 @@ static void affinities(phks__verifier *c)
                   c->pair_e);
     for (size_t k = 0; k < c->pair_count; k++) {
         size_t p = c->pair[k].p, q = c->pair[k].q;
-        double agreed = agreement(c->pair_ga[k], c->pair_gb[k], c->pair_e[k]);
+        double agreed;
         if (c->straight) {
             double sa = c->pair_sa[k], sb = c->pair_sb[k];
-            agreed = fmax(agreed, agreement(sa, sb, straight_disagreement(
-                                                        sa, sb, c->slack)));
+            agreed = better_agreement(c->pair_ga[k], c->pair_gb[k],
+                                      c->pair_e[k], sa, sb,
+                                      straight_disagreement(sa, sb, c->slack));
+        } else {
+            agreed = agreement(c->pair_ga[k], c->pair_gb[k], c->pair_e[k]);
         }
         double w = pair_weight(agreed, c->p + p, c->p + q);
         if (w > 0)
