@@ -84,26 +84,6 @@ START_TEST(local_area_keeps_what_a_scan_shares)
 }
 END_TEST
 
-/* The feature of s nearest to vector v by L1 distance (the lower index
- * on ties), and that distance. */
-static size_t nearest_feature(const phks_signature *s, const double *v,
-                              double *distance)
-{
-    size_t best = 0, length = phks_signature_vector_length(s);
-    *distance = INFINITY;
-    for (size_t j = 0; j < phks_signature_feature_count(s); j++) {
-        const double *w = phks_signature_feature_vector(s, j);
-        double d = 0;
-        for (size_t t = 0; t < length; t++)
-            d += fabs(v[t] - w[t]);
-        if (d < *distance) {
-            *distance = d;
-            best = j;
-        }
-    }
-    return best;
-}
-
 /* After any rotation, translation and uniform scale of the input, every
  * feature vector has a twin in the other signature equal to 1e-4
  * relative: its nearest by vector, looked for both ways. Not to
@@ -144,7 +124,7 @@ START_TEST(invariant_to_rigid_motion_and_scale)
             double norm = 0, distance;
             for (size_t t = 0; t < phks_signature_vector_length(from); t++)
                 norm += fabs(v[t]);
-            size_t j = nearest_feature(to, v, &distance);
+            size_t j = nearest_vector(to, v, &distance);
             if (distance > 1e-4 * norm) {
                 swapped++;
                 continue;

@@ -111,3 +111,21 @@ void put(bytes *b, const void *data, size_t n)
         memcpy(b->p + b->n, data, n);
     b->n += n;
 }
+
+size_t nearest_vector(const phks_signature *s, const double *v,
+                       double *distance)
+{
+    size_t best = 0, length = phks_signature_vector_length(s);
+    *distance = INFINITY;
+    for (size_t j = 0; j < phks_signature_feature_count(s); j++) {
+        const double *w = phks_signature_feature_vector(s, j);
+        double d = 0;
+        for (size_t t = 0; t < length; t++)
+            d += fabs(v[t] - w[t]);
+        if (d < *distance) {
+            *distance = d;
+            best = j;
+        }
+    }
+    return best;
+}

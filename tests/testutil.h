@@ -48,6 +48,12 @@ double now(void);
 /* 1 / longest side of the axis-aligned box of the mesh's vertices. */
 double axis_aligned_scale(const phks_mesh *mesh);
 
+/* The feature of s nearest to vector v (s's vector length) by L1
+ * distance, the lower index on ties, and that distance into *distance
+ * (INFINITY when s has no feature). */
+size_t nearest_vector(const phks_signature *s, const double *v,
+                       double *distance);
+
 /* A counting allocator for phks_set_allocator: {count_malloc,
  * count_realloc, count_free, NULL}. alloc_live counts the blocks held;
  * alloc_calls numbers the malloc and realloc requests from 0. Request
