@@ -26,14 +26,16 @@
  */
 #include "features/features.h"
 
+#include "core/simd.h"
+
 #include <float.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
-/* SSE2 for the two loops that run longest (disagreements and
- * multiply_block); PHKS_NO_SIMD builds the portable loops alone
- * (core/simd.h, meson's -Dsimd=disabled). */
+/* SSE2 for the loops that run longest (disagreements and add_columns,
+ * which AVX2 widens where the processor has it); PHKS_NO_SIMD builds the
+ * portable loops alone (core/simd.h, meson's -Dsimd=disabled). */
 #if defined(__SSE2__) && !defined(PHKS_NO_SIMD)
 #include <emmintrin.h>
 #define VERIFY_SSE2 1
@@ -97,14 +99,15 @@ typedef struct proposal {
  * own affinity falls to 1/e (PHKS_LOCAL_DESCRIPTOR_SPIN). */
 #define SPIN_SIGMA 0.1
 
-/* A proposal's own affinity, from the distance of its descriptors: the
- * mean Hellinger distance of the spin images, or the distance of its
- * vectors over `length` time scales. 1 for equal descriptors. */
-static double proposal_affinity(double distance, bool spin, size_t length)
+/* The exponent of a proposal's own affinity exp(-x), from the distance
+ * of its descriptors: the mean Hellinger distance of the spin images, or
+ * the distance of its vectors over `length` time scales. 0 for equal
+ * descriptors. */
+static double affinity_exponent(double distance, bool spin, size_t length)
 {
     if (spin)
-        return exp(-distance / SPIN_SIGMA);
-    return exp(-distance / (VECTOR_SIGMA * (double)length));
+        return distance / SPIN_SIGMA;
+    return distance / (VECTOR_SIGMA * (double)length);
 }
 
 /* The disagreement of two distances below is written once, for a lane
@@ -162,9 +165,14 @@ static inline double disagreement(double ga, double gb, double slack)
 /* How far two straight-line distances disagree, in DISTANCE_SIGMA: as
  * DISAGREEMENT, but either's excess counts in full (a cut leaves a
  * straight line as it was). */
-static double straight_disagreement(double sa, double sb, double slack)
+#define STRAIGHT_DISAGREEMENT(sa, sb, slack)                                \
+    (((sa) - (sb)) / (LANE_OP(larger, sa)(sa, sb) + (slack)) /              \
+     DISTANCE_SIGMA)
+
+static inline double straight_disagreement(double sa, double sb,
+                                           double slack)
 {
-    return (sa - sb) / (larger(sa, sb) + slack) / DISTANCE_SIGMA;
+    return STRAIGHT_DISAGREEMENT(sa, sb, slack);
 }
 
 /* How well two distances agree given their disagreement e, 1 at equality
@@ -297,8 +305,6 @@ struct phks__verifier {
     bool spin;        /* both carry spin images, which then propose
                          beside the vectors                              */
     double *dist_image; /* na x nb image distances (spin)                 */
-    float *ia, *ib;   /* their images as unit vectors, PHKS__SPIN_BYTES a
-                         point                                          */
     double *image_distance; /* na x nb x radii x radii: the Hellinger
                                distance of a's image k and b's image m   */
     double *ga, *gb;  /* a's features' and b's points' distances, square  */
@@ -310,7 +316,7 @@ struct phks__verifier {
     bool straight;    /* both know their unit boxes: pairs agree in
                          straight-line distance too                       */
     double *sa, *sb, *sb_scaled; /* as ga, gb, gb_scaled in straight lines */
-    double *pair_sa, *pair_sb;
+    double *pair_sa, *pair_sb, *pair_es; /* and their disagreement      */
     size_t pair_count;
     double *matrix;    /* count x stride, symmetric in its first count
                           columns, zero in the padding                   */
@@ -320,6 +326,7 @@ struct phks__verifier {
     size_t *set;
     uint32_t *trial;   /* the set of the scale being tried, per feature   */
     double scale;      /* of the set being read                           */
+    bool avx2;         /* the power iteration in AVX2's lanes             */
 };
 
 /* The distances between s's first `points` points as a square table,
@@ -456,32 +463,41 @@ static void distances(phks__verifier *c, const double *vb)
     }
 }
 
-/* A signature's images as unit vectors (their bytes over 255). */
-static void unit_images(const phks_signature *s, size_t points, float *out)
+/* Radii apart that a scale shifts an image by at most (see
+ * image_distances_at): SCALE_STEPS halved, rounded up. */
+#define RADIUS_SHIFT ((SCALE_STEPS + 1) / 2)
+
+/* The Hellinger distance of two images of PHKS__SPIN_IMAGE bytes: the
+ * bytes over 255 are unit vectors. The squares of the bytes' differences
+ * sum exactly in integers, in any order, so every build and machine
+ * gets the same bits. */
+static double image_distance(const uint8_t *x, const uint8_t *y)
 {
-    for (size_t k = 0; k < points * PHKS__SPIN_BYTES; k++)
-        out[k] = (float)s->spin[k] / 255.0f;
+    uint32_t sum = 0;
+    for (size_t b = 0; b < PHKS__SPIN_IMAGE; b++) {
+        int32_t d = (int32_t)x[b] - (int32_t)y[b];
+        sum += (uint32_t)(d * d);
+    }
+    return sqrt((double)sum / (2.0 * 255 * 255));
 }
 
-/* Every radius of every feature of a against every radius of every point
- * of b, once per entry: the scales pick among them. */
+/* Every radius of every feature of a against each radius of every point
+ * of b that some scale pairs it with, once per entry. */
 static void image_distances(phks__verifier *c)
 {
-    const size_t R = PHKS__SPIN_RADII, I = PHKS__SPIN_IMAGE;
+    const int R = PHKS__SPIN_RADII, I = PHKS__SPIN_IMAGE;
     for (size_t i = 0; i < c->na; i++)
         for (size_t j = 0; j < c->nb; j++)
-            for (size_t k = 0; k < R; k++)
-                for (size_t m = 0; m < R; m++) {
-                    const float *x = c->ia + i * PHKS__SPIN_BYTES + k * I;
-                    const float *y = c->ib + j * PHKS__SPIN_BYTES + m * I;
-                    double sum = 0;
-                    for (size_t b = 0; b < I; b++) {
-                        double d = (double)x[b] - (double)y[b];
-                        sum += d * d;
-                    }
+            for (int k = 0; k < R; k++) {
+                int low = k > RADIUS_SHIFT ? k - RADIUS_SHIFT : 0;
+                int high = k + RADIUS_SHIFT < R ? k + RADIUS_SHIFT : R - 1;
+                for (int m = low; m <= high; m++)
                     c->image_distance[((i * c->nb + j) * R + k) * R + m] =
-                        sqrt(sum / 2);
-                }
+                        image_distance(c->a->spin + i * PHKS__SPIN_BYTES +
+                                           k * I,
+                                       c->b->spin + j * PHKS__SPIN_BYTES +
+                                           m * I);
+            }
 }
 
 /* dist(i, j) from the images at the scale 2^(steps/4) of a's unit box
@@ -509,64 +525,71 @@ static void image_distances_at(phks__verifier *c, int steps)
         }
 }
 
-/* The `per` nearest of b's points by row into mine[].j, nearest first
- * (lower index on ties), leaving out the first `given` of mine; returns
- * how many of mine are taken, given included. */
+/* The `per` of b's points smallest in row, smallest first (lower index
+ * on ties), appended to the first `given` of mine, where a point already
+ * among them is not repeated; returns how many of mine are taken, given
+ * included. */
 static size_t nearest_points(const double *row, size_t nb, size_t per,
                              proposal *mine, size_t given)
 {
     size_t have = 0;
     proposal *fresh = mine + given;
     for (size_t j = 0; j < nb; j++) {
-        bool taken = false;
-        for (size_t g = 0; g < given; g++)
-            taken = taken || mine[g].j == j;
-        if (taken || (have == per && row[j] >= row[fresh[per - 1].j]))
+        if (have == per && row[j] >= row[fresh[per - 1].j])
             continue;
         size_t at = have < per ? have++ : per - 1;
         for (; at > 0 && row[fresh[at - 1].j] > row[j]; at--)
             fresh[at] = fresh[at - 1];
         fresh[at].j = (uint32_t)j;
     }
-    return given + have;
+    size_t kept = given;
+    for (size_t f = 0; f < have; f++) {
+        bool repeated = false;
+        for (size_t g = 0; g < given; g++)
+            repeated = repeated || mine[g].j == fresh[f].j;
+        if (!repeated)
+            mine[kept++] = fresh[f];
+    }
+    return kept;
 }
 
-/* The own affinity of feature i of a and point j of b at the scale
- * proposed: the better of the two descriptors' with spin images. */
-static double own_affinity(const phks__verifier *c, size_t i, size_t j)
+/* The exponent of the own affinity of feature i of a and point j of b at
+ * the scale proposed: with spin images the smaller of the two
+ * descriptors', the better affinity. */
+static double own_exponent(const phks__verifier *c, size_t i, size_t j)
 {
     size_t at = i * c->nb + j;
-    double u = proposal_affinity(c->dist[at], false, c->length);
+    double x = affinity_exponent(c->dist[at], false, c->length);
     if (c->spin)
-        u = fmax(u, proposal_affinity(c->dist_image[at], true, c->length));
-    return u;
+        x = fmin(x, affinity_exponent(c->dist_image[at], true, c->length));
+    return x;
 }
 
 /* Each query feature's CANDIDATES nearest entry points by vector (lower
- * index first on ties), and with spin images first the CANDIDATES
- * nearest by image: the images find a point's own counterpart, the
- * vectors one of its class (docs/method.md section 15). A proposal's
- * affinity is the better of the two descriptors'. The boundary
- * weights have their say once, inside dist: a proposal's affinity was
- * also multiplied by the share of weight left, which on a partial scan,
- * where the heat of most points reaches the silhouette, silenced the
- * geometry (docs/retrieval.md, "Every direction on the whole
- * benchmark"). */
+ * index first on ties); with spin images, half as many nearest by image
+ * and as many nearest by vector, a point both find proposed once: the
+ * images find a point's own counterpart, the vectors one of its class
+ * (docs/method.md section 15). A proposal's affinity is the better of
+ * the two descriptors'. The boundary weights have their say once, inside
+ * dist: a proposal's affinity was also multiplied by the share of weight
+ * left, which on a partial scan, where the heat of most points reaches
+ * the silhouette, silenced the geometry (docs/retrieval.md, "Every
+ * direction on the whole benchmark"). */
 static void propose(phks__verifier *c)
 {
     size_t nb = c->nb, per = nb < CANDIDATES ? nb : CANDIDATES;
+    if (c->spin)
+        per = (per + 1) / 2;
     c->count = 0;
     for (size_t i = 0; i < c->na; i++) {
-        const double *row = c->dist + i * nb;
-        const double *image = c->dist_image + i * nb;
         proposal *mine = c->p + c->count;
         size_t have = 0;
         if (c->spin)
-            have = nearest_points(image, nb, per, mine, 0);
-        have = nearest_points(row, nb, per, mine, have);
+            have = nearest_points(c->dist_image + i * nb, nb, per, mine, 0);
+        have = nearest_points(c->dist + i * nb, nb, per, mine, have);
         for (size_t m = 0; m < have; m++) {
             uint32_t j = mine[m].j;
-            double u = own_affinity(c, i, j);
+            double u = exp(-own_exponent(c, i, j));
             mine[m] = (proposal){(uint32_t)i, j, u, sqrt(u)};
         }
         c->count += have;
@@ -623,51 +646,103 @@ static void candidate_pairs(phks__verifier *c)
     c->pair_count = k;
 }
 
-/* disagreement() of each pair, two at a time where SSE2 is (every
- * x86-64): the same DISAGREEMENT on lanes of two, so the same bits. The
- * compiler does not vectorise the loop itself while floating-point traps
- * must stay as written. */
+/* disagreement() of each pair, or straight_disagreement() with
+ * `straight`, two at a time where SSE2 is (every x86-64): the same
+ * arithmetic on lanes of two, so the same bits. The compiler does not
+ * vectorise the loop itself while floating-point traps must stay as
+ * written. */
 static void disagreements(const double *ga, const double *gb, size_t n,
-                          double slack, double *e)
+                          double slack, bool straight, double *e)
 {
     size_t k = 0;
 #if VERIFY_SSE2
     for (; k + 2 <= n; k += 2) {
         __m128d a = _mm_loadu_pd(ga + k), b = _mm_loadu_pd(gb + k);
-        _mm_storeu_pd(e + k, DISAGREEMENT(a, b, slack));
+        _mm_storeu_pd(e + k, straight ? STRAIGHT_DISAGREEMENT(a, b, slack)
+                                      : DISAGREEMENT(a, b, slack));
     }
 #endif
     for (; k < n; k++)
-        e[k] = disagreement(ga[k], gb[k], slack);
+        e[k] = straight ? straight_disagreement(ga[k], gb[k], slack)
+                        : disagreement(ga[k], gb[k], slack);
 }
 
 /* The affinity matrix off its diagonal, dense (on real shapes most pairs
  * of proposals agree somewhat, and the power iteration then runs down
  * whole rows), 0 where two proposals share a point or do not agree. The
  * entries are pair_weight's, computed in passes: the disagreements
- * first, in a loop of arithmetic alone, then the agreements. */
+ * first, in loops of arithmetic alone, then the agreements. */
 static void affinities(phks__verifier *c)
 {
     size_t n = c->count, m = c->stride = (n + BLOCK - 1) / BLOCK * BLOCK;
     memset(c->matrix, 0, n * m * sizeof *c->matrix);
     candidate_pairs(c);
-    disagreements(c->pair_ga, c->pair_gb, c->pair_count, c->slack,
+    disagreements(c->pair_ga, c->pair_gb, c->pair_count, c->slack, false,
                   c->pair_e);
+    if (c->straight)
+        disagreements(c->pair_sa, c->pair_sb, c->pair_count, c->slack, true,
+                      c->pair_es);
     for (size_t k = 0; k < c->pair_count; k++) {
         size_t p = c->pair[k].p, q = c->pair[k].q;
         double agreed;
-        if (c->straight) {
-            double sa = c->pair_sa[k], sb = c->pair_sb[k];
+        if (c->straight)
             agreed = better_agreement(c->pair_ga[k], c->pair_gb[k],
-                                      c->pair_e[k], sa, sb,
-                                      straight_disagreement(sa, sb, c->slack));
-        } else {
+                                      c->pair_e[k], c->pair_sa[k],
+                                      c->pair_sb[k], c->pair_es[k]);
+        else
             agreed = agreement(c->pair_ga[k], c->pair_gb[k], c->pair_e[k]);
-        }
         double w = pair_weight(agreed, c->p + p, c->p + q);
         if (w > 0)
             c->matrix[p * m + q] = c->matrix[q * m + p] = w;
     }
+}
+
+/* The columns of rows p0 .. p0 + BLOCK times x, added to sum: for each
+ * row, columns ascending, one product and one sum at a time, in AVX2's
+ * lanes of four, SSE2's of two or one by one: the same bits. Row q
+ * holds column q: the matrix is symmetric. */
+#if PHKS__HAVE_AVX2
+__attribute__((target("avx2"))) static void
+add_columns_avx2(const phks__verifier *c, size_t p0, double *sum)
+{
+    __m256d acc[BLOCK / 4];
+    for (size_t r = 0; r < BLOCK / 4; r++)
+        acc[r] = _mm256_loadu_pd(sum + 4 * r);
+    for (size_t q = 0; q < c->count; q++) {
+        const double *column = c->matrix + q * c->stride + p0;
+        __m256d xq = _mm256_set1_pd(c->x[q]);
+        for (size_t r = 0; r < BLOCK / 4; r++)
+            acc[r] = _mm256_add_pd(
+                acc[r], _mm256_mul_pd(_mm256_loadu_pd(column + 4 * r), xq));
+    }
+    for (size_t r = 0; r < BLOCK / 4; r++)
+        _mm256_storeu_pd(sum + 4 * r, acc[r]);
+}
+#endif
+
+static void add_columns(const phks__verifier *c, size_t p0, double *sum)
+{
+#if VERIFY_SSE2
+    __m128d acc[BLOCK / 2];
+    for (size_t r = 0; r < BLOCK / 2; r++)
+        acc[r] = _mm_loadu_pd(sum + 2 * r);
+    for (size_t q = 0; q < c->count; q++) {
+        const double *column = c->matrix + q * c->stride + p0;
+        __m128d xq = _mm_set1_pd(c->x[q]);
+        for (size_t r = 0; r < BLOCK / 2; r++)
+            acc[r] = _mm_add_pd(acc[r],
+                                _mm_mul_pd(_mm_loadu_pd(column + 2 * r), xq));
+    }
+    for (size_t r = 0; r < BLOCK / 2; r++)
+        _mm_storeu_pd(sum + 2 * r, acc[r]);
+#else
+    for (size_t q = 0; q < c->count; q++) {
+        const double *column = c->matrix + q * c->stride + p0;
+        double xq = c->x[q];
+        for (size_t r = 0; r < BLOCK; r++)
+            sum[r] += column[r] * xq;
+    }
+#endif
 }
 
 /* y[p0 .. p0 + BLOCK) of y = A x: each its diagonal term plus the
@@ -679,28 +754,12 @@ static void multiply_block(const phks__verifier *c, size_t p0)
     double sum[BLOCK];
     for (size_t r = 0; r < BLOCK; r++)
         sum[r] = p0 + r < n ? c->p[p0 + r].affinity * c->x[p0 + r] : 0;
-    /* Row q holds column q: the matrix is symmetric. */
-#if VERIFY_SSE2
-    __m128d acc[BLOCK / 2];
-    for (size_t r = 0; r < BLOCK / 2; r++)
-        acc[r] = _mm_loadu_pd(sum + 2 * r);
-    for (size_t q = 0; q < n; q++) {
-        const double *column = c->matrix + q * c->stride + p0;
-        __m128d xq = _mm_set1_pd(c->x[q]);
-        for (size_t r = 0; r < BLOCK / 2; r++)
-            acc[r] = _mm_add_pd(acc[r],
-                                _mm_mul_pd(_mm_loadu_pd(column + 2 * r), xq));
-    }
-    for (size_t r = 0; r < BLOCK / 2; r++)
-        _mm_storeu_pd(sum + 2 * r, acc[r]);
-#else
-    for (size_t q = 0; q < n; q++) {
-        const double *column = c->matrix + q * c->stride + p0;
-        double xq = c->x[q];
-        for (size_t r = 0; r < BLOCK; r++)
-            sum[r] += column[r] * xq;
-    }
+#if PHKS__HAVE_AVX2
+    if (c->avx2)
+        add_columns_avx2(c, p0, sum);
+    else
 #endif
+        add_columns(c, p0, sum);
     for (size_t r = 0; r < BLOCK && p0 + r < n; r++)
         c->y[p0 + r] = sum[r];
 }
@@ -833,7 +892,7 @@ static double best_affinity(phks__verifier *c, uint32_t *pair_of)
 /* ... of which these, last, only with spin images (NULL without). */
 #define SPIN_OWNED(c)                                                       \
     (c)->dist_image, (c)->sa, (c)->sb, (c)->sb_scaled, (c)->pair_sa,        \
-        (c)->pair_sb, (c)->ia, (c)->ib, (c)->image_distance
+        (c)->pair_sb, (c)->pair_es, (c)->image_distance
 
 void phks__verifier_free(phks__verifier *c)
 {
@@ -851,8 +910,7 @@ static bool allocate(phks__verifier *c, size_t nb)
 {
     size_t na = c->na, L = c->length;
     bool spin = c->a->spin;
-    /* With images a feature proposes by both descriptors: twice as many. */
-    size_t per = (nb < CANDIDATES ? nb : CANDIDATES) * (spin ? 2 : 1);
+    size_t per = nb < CANDIDATES ? nb : CANDIDATES;
     size_t most = na * per + 1;
     c->va = phks__malloc_array(na, L * sizeof *c->va);
     c->vb = phks__malloc_array(nb, L * sizeof *c->vb);
@@ -887,8 +945,7 @@ static bool allocate(phks__verifier *c, size_t nb)
         c->sb_scaled = phks__malloc_array(nb, nb * sizeof *c->sb_scaled);
         c->pair_sa = phks__malloc_array(most, most / 2 * sizeof *c->pair_sa);
         c->pair_sb = phks__malloc_array(most, most / 2 * sizeof *c->pair_sb);
-        c->ia = phks__malloc_array(na + 1, PHKS__SPIN_BYTES * sizeof *c->ia);
-        c->ib = phks__malloc_array(nb + 1, PHKS__SPIN_BYTES * sizeof *c->ib);
+        c->pair_es = phks__malloc_array(most, most / 2 * sizeof *c->pair_es);
         c->image_distance = phks__malloc_array(
             (na + 1) * (nb + 1), R * R * sizeof *c->image_distance);
     }
@@ -913,6 +970,7 @@ phks_status phks__verifier_new(const phks_signature *a, size_t points,
     c->length = a->length;
     c->steps = c->length > 1 ? c->length - 1 : 1;
     c->slack = sqrt(4 * a->options.feature_scale * a->options.tau);
+    c->avx2 = phks__cpu_avx2();
     if (!allocate(c, points)) {
         phks__verifier_free(c);
         return phks__fail_oom("verified matching");
@@ -920,10 +978,8 @@ phks_status phks__verifier_new(const phks_signature *a, size_t points,
     compared_vectors(a, c->na, c->va);
     boundary_weights(a, c->na, c->wa);
     square_distances(a, c->na, c->ga);
-    if (a->spin) {
+    if (a->spin)
         straight_distances(a, c->na, c->sa);
-        unit_images(a, c->na, c->ia);
-    }
     *out = c;
     return PHKS_OK;
 }
@@ -948,10 +1004,8 @@ static void load_entry(phks__verifier *c, const phks_signature *b)
     c->straight = c->spin && c->a->unit_scale > 0 && b->unit_scale > 0;
     if (c->straight)
         straight_distances(b, c->nb, c->sb);
-    if (c->spin) {
-        unit_images(b, c->nb, c->ib);
+    if (c->spin)
         image_distances(c);
-    }
 }
 
 void phks__verifier_run(phks__verifier *c, const phks_signature *b,
@@ -968,7 +1022,7 @@ static void keep_best_affinities(const phks__verifier *c, size_t i,
                                  double *best)
 {
     for (size_t j = 0; j < c->nb; j++)
-        best[j] = fmax(best[j], own_affinity(c, i, j));
+        best[j] = fmax(best[j], exp(-own_exponent(c, i, j)));
 }
 
 phks_status phks__candidates(const phks_signature *a, size_t feature,
