@@ -249,7 +249,7 @@ typedef enum phks_matching {
 typedef enum phks_local_descriptor {
     /* The feature vectors themselves (HKS at the 15 time scales), as
      * 0.2.0 did. Heat at the larger scales sums over the whole shape, so
-     * a cut changes every vector. */
+     * a cut changes every vector. The value a zeroed field holds. */
     PHKS_LOCAL_DESCRIPTOR_HEAT = 0,
     /* Spin images (Johnson and Hebert 1999) of the surface within
      * straight-line balls of five radii around each point, on a ladder of
@@ -260,8 +260,10 @@ typedef enum phks_local_descriptor {
      * alone. Orientation-free (the normal's sign is taken from the
      * surface itself), so triangle soups with inconsistent winding get
      * the same images. 100 more bytes per point in a blob
-     * (docs/method.md section 15), and a verified score takes about five
-     * times as long (docs/benchmarks.md). */
+     * (docs/method.md section 15), and a verified query takes about 1.4
+     * times as long (docs/benchmarks.md). The default since 0.3.0. Spin images
+     * do not tell a point from its mirror image, so on a symmetric shape
+     * the verified partner may be a feature's mirror twin. */
     PHKS_LOCAL_DESCRIPTOR_SPIN = 1
 } phks_local_descriptor;
 
@@ -390,9 +392,10 @@ typedef struct phks_options {
                                 the distances between their feature
                                 points                                   */
     int32_t local_descriptor; /* phks_local_descriptor: what proposes the
-                                correspondences VERIFIED checks: HEAT
-                                (SPIN is measured in docs/retrieval.md,
-                                "Spin images"). Ignored with NEAREST     */
+                                correspondences VERIFIED checks: SPIN
+                                since 0.3.0 (0.2.0's is HEAT; both are
+                                measured in docs/retrieval.md, "Spin
+                                images"). Ignored with NEAREST           */
     int32_t global_descriptor; /* phks_global_descriptor: a term of the
                                 whole shape in the verified score: NONE
                                 (D2 is measured in docs/retrieval.md,

@@ -76,7 +76,7 @@ START_TEST(options_defaults_are_the_papers)
     ck_assert_double_eq(o.boundary_margin, 2);
     ck_assert_int_eq(o.hks_scaling, PHKS_HKS_SCALING_LOCAL_AREA);
     ck_assert_int_eq(o.matching, PHKS_MATCHING_VERIFIED);
-    ck_assert_int_eq(o.local_descriptor, PHKS_LOCAL_DESCRIPTOR_HEAT);
+    ck_assert_int_eq(o.local_descriptor, PHKS_LOCAL_DESCRIPTOR_SPIN);
     ck_assert_int_eq(o.global_descriptor, PHKS_GLOBAL_DESCRIPTOR_NONE);
     ck_assert_int_eq(phks_options_init(NULL), PHKS_ERROR_INVALID_ARGUMENT);
 }

@@ -177,7 +177,7 @@ for x in c:
     assert len(x["position_a"]) == 3 == len(x["position_b"])' "$text_score" ||
     fail "match --json against the text score $text_score"
 run "$phks" match shifted.off a.off --json; expect_rc 0 "match shifted.off"
-# a's vertex at a point is b's at the same point, 5 on; a verified
+# a's vertex at a point is b's at the same point, 5 on; the verified
 # partner may be a symmetric copy of the point, so positions decide
 $py -c 'import json,sys; d=json.load(sys.stdin); assert d["score"] == 0
 c = d["correspondences"]
@@ -596,12 +596,12 @@ expect_out '"local_descriptor": "heat"'
 run "$phks" --local-descriptor hks signature box.off; expect_rc 2 \
     "--local-descriptor hks"
 expect_err "^phks: --local-descriptor: 'hks' is not one of heat, spin$"
-run "$phks" --local-descriptor spin db query t.db box.off; expect_rc 1 \
-    "db query --local-descriptor spin against a database of heat vectors"
-expect_err "^phks: t.db: the options given are not the database's: --local-descriptor spin against heat "
-run "$phks" --local-descriptor spin signature box.off -o h.sig; expect_rc 0
+run "$phks" --local-descriptor heat db query t.db box.off; expect_rc 1 \
+    "db query --local-descriptor heat against a database of spin images"
+expect_err "^phks: t.db: the options given are not the database's: --local-descriptor heat against spin "
+run "$phks" --local-descriptor heat signature box.off -o h.sig; expect_rc 0
 run "$phks" match h.sig box.off; expect_rc 1 "match of blobs made with other local descriptors"
-expect_err "^phks: h.sig and box.off: made with different options: --local-descriptor spin against heat$"
+expect_err "^phks: h.sig and box.off: made with different options: --local-descriptor heat against spin$"
 run "$phks" --matching nearest --local-descriptor heat signature box.off \
     -o hn.sig; expect_rc 0
 run "$phks" --matching nearest match hn.sig box.off; expect_rc 0 \
@@ -619,7 +619,7 @@ run "$phks" --global-descriptor d2 db query t.db box.off; expect_rc 1 \
     "db query --global-descriptor d2 against a database without"
 expect_err "^phks: t.db: the options given are not the database's: --global-descriptor d2 against none "
 run "$phks" db info t.db; expect_rc 0 "db info"
-expect_out "matching verified, local descriptor heat, global descriptor none, HKS-simp"
+expect_out "matching verified, local descriptor spin, global descriptor none, HKS-simp"
 run "$phks" --global-descriptor d2 signature a.off -o d2.sig; expect_rc 0 \
     "a d2 blob"
 run "$phks" --global-descriptor d2 match d2.sig b.off; expect_rc 0 \

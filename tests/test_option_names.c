@@ -114,7 +114,7 @@ START_TEST(every_option_reads_back_what_it_writes)
     changed.hks_scaling = PHKS_HKS_SCALING_MEAN;
     changed.scale_count = 2;
     changed.threads = 7;
-    changed.local_descriptor = PHKS_LOCAL_DESCRIPTOR_SPIN;
+    changed.local_descriptor = PHKS_LOCAL_DESCRIPTOR_HEAT;
     changed.global_descriptor = PHKS_GLOBAL_DESCRIPTOR_D2;
     const phks_options *sources[2] = {NULL, &changed};
     phks_options defaults;
@@ -331,9 +331,9 @@ START_TEST(compare_names_both_values_in_the_users_words)
     /* The local descriptor only between two VERIFIED sets: NEAREST
      * ignores it. */
     b = a;
-    b.local_descriptor = PHKS_LOCAL_DESCRIPTOR_SPIN;
+    b.local_descriptor = PHKS_LOCAL_DESCRIPTOR_HEAT;
     phks_options_compare(&a, &b, PHKS_SPELLING_CLI, detail, sizeof detail);
-    ck_assert_str_eq(detail, "local-descriptor heat against spin");
+    ck_assert_str_eq(detail, "local-descriptor spin against heat");
     a.matching = b.matching = PHKS_MATCHING_NEAREST;
     ck_assert_int_eq(phks_options_compare(&a, &b, PHKS_SPELLING_C, NULL, 0),
                      PHKS_OK);

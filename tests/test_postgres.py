@@ -57,11 +57,16 @@ pg.sql("CREATE EXTENSION phks;")
 version = pg.sql("SELECT extversion FROM pg_extension WHERE extname='phks';")
 print("extension version", version[0][0])
 
+# A default signature (10 KB with its spin images) does not fit a page and
+# goes to TOAST whatever the target, leaving the heap a page or two, which
+# the planner gives no worker of its own accord: parallel_workers asks for
+# two, so that the parallel plans below are chosen.
 for table, files in (("shapes", entries), ("many", many)):
     values = ",\n".join("(%d, '%s', '%s')" % (i + 1, e, pgutil.hexfile(e))
                         for i, e in enumerate(files))
     pg.sql("CREATE TABLE %s (id bigint PRIMARY KEY, name text NOT NULL, "
-           "sig phks_signature NOT NULL) WITH (toast_tuple_target = 8160);\n"
+           "sig phks_signature NOT NULL) WITH (toast_tuple_target = 8160, "
+           "parallel_workers = 2);\n"
            "INSERT INTO %s VALUES %s;\nANALYZE %s;"
            % (table, table, values, table))
 # The large table as docs/postgres.md lays it out: a key beside each

@@ -702,7 +702,7 @@ CREATE FUNCTION raw.key_distance(bytea, phks_signature) RETURNS float8
 OPTION_VARIANTS = [["--hks-scaling", "none"], ["--hks-scaling", "mean"],
                    ["--matching", "nearest"], ["--quadrature", "triangles"],
                    ["--operator", "literal"], ["--boundary-margin", "0"],
-                   ["--local-descriptor", "spin"]]
+                   ["--local-descriptor", "heat"]]
 
 
 def start_cluster(work):

@@ -52,7 +52,7 @@ phks_status phks_options_init(phks_options *options)
     /* Heat at the larger scales sums over the whole shape, so a cut
      * changes every feature vector; spin images of the surface near each
      * point do not see a cut away from it (docs/method.md section 15). */
-    options->local_descriptor = PHKS_LOCAL_DESCRIPTOR_HEAT;
+    options->local_descriptor = PHKS_LOCAL_DESCRIPTOR_SPIN;
     return PHKS_OK;
 }
 

@@ -228,11 +228,11 @@ def test_matching_option_round_trips(creature_mesh, creature_nearest,
 
 
 def test_local_descriptor_option(creature_mesh, creature_signature):
-    assert phks.default_options()["local_descriptor"] == "heat"
-    assert creature_signature.options["local_descriptor"] == "heat"
-    heat = creature_signature
-    spin = phks.signature(creature_mesh, local_descriptor="spin")
-    assert spin.options["local_descriptor"] == "spin"
+    assert phks.default_options()["local_descriptor"] == "spin"
+    assert creature_signature.options["local_descriptor"] == "spin"
+    spin = creature_signature
+    heat = phks.signature(creature_mesh, local_descriptor="heat")
+    assert heat.options["local_descriptor"] == "heat"
     assert phks.signature(creature_mesh, local_descriptor=0,
                           feature_count=3).options["local_descriptor"] == \
         "heat"
@@ -270,9 +270,10 @@ def test_global_descriptor_option(creature_mesh, creature_signature,
     with pytest.raises(ValueError):
         phks.signature(creature_mesh, global_descriptor="D2")
     # A D2 blob keeps its distribution: it decodes to the same bytes and
-    # scores as the signature it came from.
+    # scores as the signature it came from. Format 6 adds the field and
+    # 32 bytes to format 5's spin images (docs/formats.md).
     blob = d2.encode()
-    assert len(blob) == len(creature_signature.encode()) + 8 + 32
+    assert len(blob) == len(creature_signature.encode()) + 4 + 32
     back = phks.decode(blob)
     assert back.encode() == blob
     assert phks.score(back, d2) == phks.score(d2, d2)
