@@ -261,9 +261,10 @@ typedef enum phks_local_descriptor {
      * surface itself), so triangle soups with inconsistent winding get
      * the same images. 100 more bytes per point in a blob
      * (docs/method.md section 15), and a verified query takes about 1.3
-     * times as long (docs/benchmarks.md). The default since 0.3.0. Spin images
-     * do not tell a point from its mirror image, so on a symmetric shape
-     * the verified partner may be a feature's mirror twin. */
+     * times as long (docs/benchmarks.md). The default since 0.3.0. Spin
+     * images do not tell a point from its mirror image, so on a
+     * symmetric shape the verified partner may be a feature's mirror
+     * twin. */
     PHKS_LOCAL_DESCRIPTOR_SPIN = 1
 } phks_local_descriptor;
 
