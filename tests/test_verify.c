@@ -371,7 +371,7 @@ static void tally(const catalogue *c, size_t own, const phks_signature *q,
 /* The same creature bent into another pose: the distances along the
  * surface do not change, so nearly every verified pair is right and the
  * source ranks first among the 20 (measured: all five first, 65 of 72
- * pairs right; with spin images, 64 of 75). */
+ * pairs right; with spin images, 66 of 74). */
 START_TEST(bend_keeps_correspondences)
 {
     descriptor = _i;
@@ -445,7 +445,7 @@ static phks_mesh *cut_third(const shape_mesh *s)
  * (or its mirror image) far more often than chance, under 4% for a
  * random point (measured: 16 of 52 for the cuts, 54 of 224 for the
  * scans). With spin images (the loop's second run): 3 of the 25 first and
- * 85 of 339 verified pairs right, against 5 and 73 of 275 with the
+ * 73 of 307 verified pairs right, against 5 and 73 of 275 with the
  * vectors. */
 START_TEST(parts_verify_right_pairs)
 {
