@@ -9,8 +9,9 @@
  * test command), which so give the same bits.
  *
  * The blobs are four creatures' signatures (two kinds, two poses, and a
- * partial scan), once with the default options (verified matching) and
- * once with PHKS_MATCHING_NEAREST. A row of the table is an ordered pair
+ * partial scan), once with the default options (verified matching, spin
+ * images), once with the heat vectors proposing (PHKS_LOCAL_DESCRIPTOR_HEAT)
+ * and once with PHKS_MATCHING_NEAREST. A row of the table is an ordered pair
  * of blobs of the same options: the bits of phks_score, of
  * phks_score_nearest and of phks_match's score, as 16 hex digits, then
  * the number of phks_match's rows marked verified and each feature of the
@@ -30,10 +31,11 @@
 #include <stdlib.h>
 #include <string.h>
 
-enum { SHAPES = 4, GROUPS = 2, ROW_CHARS = 512 };
+enum { SHAPES = 4, GROUPS = 3, ROW_CHARS = 512 };
 
 /* The blobs' names, without ".sig": GROUPS x SHAPES. */
-static const char *const group_names[GROUPS] = {"verified", "nearest"};
+static const char *const group_names[GROUPS] = {"verified", "heat",
+                                                "nearest"};
 static const char *const shape_names[SHAPES] = {
     "quadruped-pose1", "quadruped-pose3", "humanoid-pose1",
     "quadruped-pose3-scan"};
@@ -271,9 +273,10 @@ static bool print_row(void *context, const char *row)
 static int write_all(const char *dir)
 {
     phks_options options[GROUPS];
-    phks_options_init(&options[0]);
-    phks_options_init(&options[1]);
-    options[1].matching = PHKS_MATCHING_NEAREST;
+    for (size_t g = 0; g < GROUPS; g++)
+        phks_options_init(&options[g]);
+    options[1].local_descriptor = PHKS_LOCAL_DESCRIPTOR_HEAT;
+    options[2].matching = PHKS_MATCHING_NEAREST;
     bool ok = true;
     for (size_t g = 0; g < GROUPS; g++)
         for (size_t s = 0; s < SHAPES && ok; s++)
