@@ -471,7 +471,7 @@ static void distances(phks__verifier *c, const double *vb)
  * bytes over 255 are unit vectors. The squares of the bytes' differences
  * sum exactly in integers, in any order, so every build and machine
  * gets the same bits. */
-static double image_distance(const uint8_t *x, const uint8_t *y)
+static double hellinger_distance(const uint8_t *x, const uint8_t *y)
 {
     uint32_t sum = 0;
     for (size_t b = 0; b < PHKS__SPIN_IMAGE; b++) {
@@ -493,10 +493,9 @@ static void image_distances(phks__verifier *c)
                 int high = k + RADIUS_SHIFT < R ? k + RADIUS_SHIFT : R - 1;
                 for (int m = low; m <= high; m++)
                     c->image_distance[((i * c->nb + j) * R + k) * R + m] =
-                        image_distance(c->a->spin + i * PHKS__SPIN_BYTES +
-                                           k * I,
-                                       c->b->spin + j * PHKS__SPIN_BYTES +
-                                           m * I);
+                        hellinger_distance(
+                            c->a->spin + i * PHKS__SPIN_BYTES + k * I,
+                            c->b->spin + j * PHKS__SPIN_BYTES + m * I);
             }
 }
 
