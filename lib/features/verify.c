@@ -33,9 +33,11 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* SSE2 for the loops that run longest (disagreements and add_columns,
- * which AVX2 widens where the processor has it); PHKS_NO_SIMD builds the
- * portable loops alone (core/simd.h, meson's -Dsimd=disabled). */
+/* SSE2 for disagreements and AVX2, where the processor has it, for
+ * add_columns, the loops that run longest (the compiler puts
+ * add_columns' portable loop in SSE2's lanes itself); PHKS_NO_SIMD
+ * builds the portable loops alone (core/simd.h, meson's
+ * -Dsimd=disabled). */
 #if defined(__SSE2__) && !defined(PHKS_NO_SIMD)
 #include <emmintrin.h>
 #define VERIFY_SSE2 1
@@ -552,16 +554,16 @@ static size_t nearest_points(const double *row, size_t nb, size_t per,
     return kept;
 }
 
-/* The exponent of the own affinity of feature i of a and point j of b at
- * the scale proposed: with spin images the smaller of the two
- * descriptors', the better affinity. */
-static double own_exponent(const phks__verifier *c, size_t i, size_t j)
+/* The own affinity of feature i of a and point j of b at the scale
+ * proposed: with spin images the better of the two descriptors', that of
+ * the smaller exponent. */
+static double own_affinity(const phks__verifier *c, size_t i, size_t j)
 {
     size_t at = i * c->nb + j;
     double x = affinity_exponent(c->dist[at], false, c->length);
     if (c->spin)
         x = fmin(x, affinity_exponent(c->dist_image[at], true, c->length));
-    return x;
+    return exp(-x);
 }
 
 /* Each query feature's CANDIDATES nearest entry points by vector (lower
@@ -588,7 +590,7 @@ static void propose(phks__verifier *c)
         have = nearest_points(c->dist + i * nb, nb, per, mine, have);
         for (size_t m = 0; m < have; m++) {
             uint32_t j = mine[m].j;
-            double u = exp(-own_exponent(c, i, j));
+            double u = own_affinity(c, i, j);
             mine[m] = (proposal){(uint32_t)i, j, u, sqrt(u)};
         }
         c->count += have;
@@ -698,8 +700,8 @@ static void affinities(phks__verifier *c)
 
 /* The columns of rows p0 .. p0 + BLOCK times x, added to sum: for each
  * row, columns ascending, one product and one sum at a time, in AVX2's
- * lanes of four, SSE2's of two or one by one: the same bits. Row q
- * holds column q: the matrix is symmetric. */
+ * lanes of four or the rows one by one: the same bits. Row q holds
+ * column q: the matrix is symmetric. */
 #if PHKS__HAVE_AVX2
 __attribute__((target("avx2"))) static void
 add_columns_avx2(const phks__verifier *c, size_t p0, double *sum)
@@ -721,27 +723,12 @@ add_columns_avx2(const phks__verifier *c, size_t p0, double *sum)
 
 static void add_columns(const phks__verifier *c, size_t p0, double *sum)
 {
-#if VERIFY_SSE2
-    __m128d acc[BLOCK / 2];
-    for (size_t r = 0; r < BLOCK / 2; r++)
-        acc[r] = _mm_loadu_pd(sum + 2 * r);
-    for (size_t q = 0; q < c->count; q++) {
-        const double *column = c->matrix + q * c->stride + p0;
-        __m128d xq = _mm_set1_pd(c->x[q]);
-        for (size_t r = 0; r < BLOCK / 2; r++)
-            acc[r] = _mm_add_pd(acc[r],
-                                _mm_mul_pd(_mm_loadu_pd(column + 2 * r), xq));
-    }
-    for (size_t r = 0; r < BLOCK / 2; r++)
-        _mm_storeu_pd(sum + 2 * r, acc[r]);
-#else
     for (size_t q = 0; q < c->count; q++) {
         const double *column = c->matrix + q * c->stride + p0;
         double xq = c->x[q];
         for (size_t r = 0; r < BLOCK; r++)
             sum[r] += column[r] * xq;
     }
-#endif
 }
 
 /* y[p0 .. p0 + BLOCK) of y = A x: each its diagonal term plus the
@@ -1021,7 +1008,7 @@ static void keep_best_affinities(const phks__verifier *c, size_t i,
                                  double *best)
 {
     for (size_t j = 0; j < c->nb; j++)
-        best[j] = fmax(best[j], exp(-own_exponent(c, i, j)));
+        best[j] = fmax(best[j], own_affinity(c, i, j));
 }
 
 phks_status phks__candidates(const phks_signature *a, size_t feature,
