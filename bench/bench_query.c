@@ -1,7 +1,8 @@
 /*
  * bench_query.c - top-k query time of a shape database against its size,
- * on synthetic signatures (15 features x 15 scales, uniform random HKS
- * values: every entry is about as far as every other, so the scan can
+ * on synthetic signatures of the default options (15 features and 20
+ * samples x 15 scales, uniform random HKS values, spin images of random
+ * bytes: every entry is about as far as every other, so the scan can
  * skip little; real catalogues with classes are easier).
  *
  *   bench-query [--runs R] [--k K] [--file PATH] [SIZE...]
@@ -77,6 +78,13 @@ static phks_signature *synthetic(uint64_t *state)
         for (size_t s = 0; s < SCALES; s++)
             sig->vectors[i * SCALES + s] = uniform(state);
     }
+    /* Random images, not the zeros alloc_layout leaves (on which every
+     * proposal would tie), and a unit scale, with which the verifier
+     * compares straight-line distances too, as on real signatures. */
+    sig->unit_scale = 1;
+    for (size_t k = 0; sig->spin && k < (FEATURES + PHKS__SAMPLES) *
+                                          (size_t)PHKS__SPIN_BYTES; k++)
+        sig->spin[k] = (uint8_t)(256 * uniform(state));
     return sig;
 }
 
