@@ -242,60 +242,6 @@ static void individual(unsigned kind, unsigned k, unsigned pose,
         out->xyz[3 * v + (k - 1)] *= 1.3;
 }
 
-typedef struct catalogue {
-    phks_signature *sig[SHAPE_KIND_COUNT * INDIVIDUALS];
-    phks_mesh *mesh[SHAPE_KIND_COUNT * INDIVIDUALS];
-} catalogue;
-
-static void catalogue_make(catalogue *c)
-{
-    for (unsigned kind = 0; kind < SHAPE_KIND_COUNT; kind++)
-        for (unsigned k = 0; k < INDIVIDUALS; k++) {
-            shape_mesh s;
-            individual(kind, k, ENTRY_POSE, &s);
-            size_t e = kind * INDIVIDUALS + k;
-            c->mesh[e] = mesh_of(s.xyz, s.vertex_count, s.triangles,
-                                 s.triangle_count);
-            c->sig[e] = signature_of(c->mesh[e]);
-            shape_mesh_free(&s);
-        }
-}
-
-static void catalogue_free(catalogue *c)
-{
-    for (size_t e = 0; e < SHAPE_KIND_COUNT * INDIVIDUALS; e++) {
-        phks_signature_free(c->sig[e]);
-        phks_mesh_free(c->mesh[e]);
-    }
-}
-
-/* Rank of entry `own` for query q (1 = best; ties count against it). */
-static size_t rank_of(const catalogue *c, const phks_signature *q, size_t own)
-{
-    double mine, other;
-    ck_assert_int_eq(phks_score(q, c->sig[own], &mine), PHKS_OK);
-    size_t rank = 1;
-    for (size_t e = 0; e < SHAPE_KIND_COUNT * INDIVIDUALS; e++) {
-        ck_assert_int_eq(phks_score(q, c->sig[e], &other), PHKS_OK);
-        rank += e != own && other <= mine;
-    }
-    return rank;
-}
-
-/* A piece's mesh; source[v] is the creature vertex of mesh vertex v. */
-static phks_mesh *piece_mesh(const piece *p, uint32_t **source)
-{
-    phks_mesh *m = mesh_of(p->xyz, p->vertex_count, p->triangles,
-                           p->triangle_count);
-    size_t n = phks_mesh_vertex_count(m);
-    *source = malloc(n * sizeof **source);
-    ck_assert_ptr_nonnull(*source);
-    const uint32_t *origin = phks_mesh_vertex_origin(m);
-    for (size_t v = 0; v < n; v++)
-        (*source)[v] = p->source_vertex[origin[v]];
-    return m;
-}
-
 /* The symmetries of a creature at rest, about the vertical line through
  * its vertex mean, as maps of the horizontal coordinates:
  * (x, y) -> (a x + b y, c x + d y). */
@@ -359,6 +305,68 @@ static uint32_t *twins_of(unsigned kind, size_t *n, unsigned *found)
     return twin;
 }
 
+typedef struct catalogue {
+    phks_signature *sig[SHAPE_KIND_COUNT * INDIVIDUALS];
+    phks_mesh *mesh[SHAPE_KIND_COUNT * INDIVIDUALS];
+    uint32_t *twin[SHAPE_KIND_COUNT]; /* twins_of each kind     */
+    unsigned symmetric[SHAPE_KIND_COUNT];
+} catalogue;
+
+static void catalogue_make(catalogue *c)
+{
+    for (unsigned kind = 0; kind < SHAPE_KIND_COUNT; kind++) {
+        size_t n;
+        c->twin[kind] = twins_of(kind, &n, &c->symmetric[kind]);
+        for (unsigned k = 0; k < INDIVIDUALS; k++) {
+            shape_mesh s;
+            individual(kind, k, ENTRY_POSE, &s);
+            size_t e = kind * INDIVIDUALS + k;
+            c->mesh[e] = mesh_of(s.xyz, s.vertex_count, s.triangles,
+                                 s.triangle_count);
+            c->sig[e] = signature_of(c->mesh[e]);
+            ck_assert_uint_eq(phks_mesh_vertex_count(c->mesh[e]), n);
+            shape_mesh_free(&s);
+        }
+    }
+}
+
+static void catalogue_free(catalogue *c)
+{
+    for (size_t e = 0; e < SHAPE_KIND_COUNT * INDIVIDUALS; e++) {
+        phks_signature_free(c->sig[e]);
+        phks_mesh_free(c->mesh[e]);
+    }
+    for (unsigned kind = 0; kind < SHAPE_KIND_COUNT; kind++)
+        free(c->twin[kind]);
+}
+
+/* Rank of entry `own` for query q (1 = best; ties count against it). */
+static size_t rank_of(const catalogue *c, const phks_signature *q, size_t own)
+{
+    double mine, other;
+    ck_assert_int_eq(phks_score(q, c->sig[own], &mine), PHKS_OK);
+    size_t rank = 1;
+    for (size_t e = 0; e < SHAPE_KIND_COUNT * INDIVIDUALS; e++) {
+        ck_assert_int_eq(phks_score(q, c->sig[e], &other), PHKS_OK);
+        rank += e != own && other <= mine;
+    }
+    return rank;
+}
+
+/* A piece's mesh; source[v] is the creature vertex of mesh vertex v. */
+static phks_mesh *piece_mesh(const piece *p, uint32_t **source)
+{
+    phks_mesh *m = mesh_of(p->xyz, p->vertex_count, p->triangles,
+                           p->triangle_count);
+    size_t n = phks_mesh_vertex_count(m);
+    *source = malloc(n * sizeof **source);
+    ck_assert_ptr_nonnull(*source);
+    const uint32_t *origin = phks_mesh_vertex_origin(m);
+    for (size_t v = 0; v < n; v++)
+        (*source)[v] = p->source_vertex[origin[v]];
+    return m;
+}
+
 /* The oracle's symmetries are the creatures' own: shapes.h's layout
  * has each of those twins_of finds, and the hand, whose fingers differ,
  * and the quadruped, whose head and tail do, lack the others. */
@@ -402,13 +410,12 @@ static void check_pairs(const catalogue *c, size_t e, const phks_signature *q,
     size_t nq = phks_signature_feature_count(q);
     size_t ne = phks_signature_feature_count(c->sig[e]);
     phks_correspondence *pairs = malloc((nq + ne) * sizeof *pairs);
-    size_t count, nv = phks_mesh_vertex_count(c->mesh[e]), n;
+    size_t count, nv = phks_mesh_vertex_count(c->mesh[e]);
     double score;
     ck_assert_int_eq(phks_match(q, c->sig[e], pairs, nq + ne, &count, &score),
                      PHKS_OK);
-    unsigned symmetric;
-    uint32_t *twin = twins_of((unsigned)(e / INDIVIDUALS), &n, &symmetric);
-    ck_assert_uint_eq(n, nv);
+    unsigned symmetric = c->symmetric[e / INDIVIDUALS];
+    const uint32_t *twin = c->twin[e / INDIVIDUALS];
     double *d = malloc(nv * sizeof *d), *nearest = malloc(nv * sizeof *d);
     double tolerance = 0.1 * sqrt(phks_mesh_area(c->mesh[e]));
     for (size_t i = 0; i < nq; i++) {
@@ -435,7 +442,6 @@ static void check_pairs(const catalogue *c, size_t e, const phks_signature *q,
         t->right += nearest[got] <= tolerance;
         t->chance += (double)near / (double)nv;
     }
-    free(twin);
     free(nearest);
     free(d);
     free(pairs);
