@@ -256,6 +256,26 @@ static const symmetry SYMMETRIES[] = {
 };
 enum { SYMMETRY_COUNT = sizeof SYMMETRIES / sizeof *SYMMETRIES };
 
+/* The first of the n vertices x nearest to p, by brute force; its
+ * distance from p into *gap. */
+static uint32_t nearest_vertex(const double *x, size_t n, const double p[3],
+                               double *gap)
+{
+    uint32_t best = 0;
+    double best_d2 = INFINITY;
+    for (size_t w = 0; w < n; w++) {
+        double d2 = 0;
+        for (int j = 0; j < 3; j++)
+            d2 += (x[3 * w + j] - p[j]) * (x[3 * w + j] - p[j]);
+        if (d2 < best_d2) {
+            best_d2 = d2;
+            best = (uint32_t)w;
+        }
+    }
+    *gap = sqrt(best_d2);
+    return best;
+}
+
 /* The twins of every vertex of a creature at rest: twin[k * n + v] is
  * the vertex nearest to v's image under SYMMETRIES[k], and bit k of
  * *found says that k is a symmetry of the creature: every image lies
@@ -287,17 +307,9 @@ static uint32_t *twins_of(unsigned kind, size_t *n, unsigned *found)
             double px = x[3 * v] - mean[0], py = x[3 * v + 1] - mean[1];
             double p[3] = {mean[0] + g->a * px + g->b * py,
                            mean[1] + g->c * px + g->d * py, x[3 * v + 2]};
-            double best_d2 = INFINITY;
-            for (size_t w = 0; w < *n; w++) {
-                double d2 = 0;
-                for (int j = 0; j < 3; j++)
-                    d2 += (x[3 * w + j] - p[j]) * (x[3 * w + j] - p[j]);
-                if (d2 < best_d2) {
-                    best_d2 = d2;
-                    twin[k * *n + v] = (uint32_t)w;
-                }
-            }
-            farthest = fmax(farthest, sqrt(best_d2));
+            double gap;
+            twin[k * *n + v] = nearest_vertex(x, *n, p, &gap);
+            farthest = fmax(farthest, gap);
         }
         *found |= (unsigned)(farthest <= slack) << k;
     }
