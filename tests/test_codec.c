@@ -11,8 +11,10 @@ static phks_signature *make(size_t count, uint64_t seed)
     phks_signature *sig;
     ck_assert_int_eq(phks__signature_alloc(count, 0, 15, &sig), PHKS_OK);
     phks_options_init(&sig->options);
-    /* The paper's matching: no layout (format 4's is in test_verify.c). */
+    /* The paper's matching and quadrature: format 2, no layout (format
+     * 4's is in test_verify.c). */
     sig->options.matching = PHKS_MATCHING_NEAREST;
+    sig->options.quadrature = PHKS_QUADRATURE_VERTICES;
     for (size_t i = 0; i < count; i++) {
         sig->vertex[i] = (uint32_t)(i * 7);
         for (int d = 0; d < 3; d++)
@@ -35,6 +37,7 @@ static phks_signature *make_verified(size_t count, size_t samples,
     ck_assert_int_eq(phks__signature_alloc(count, samples, 15, &sig), PHKS_OK);
     phks_options_init(&sig->options);
     sig->options.matching = PHKS_MATCHING_VERIFIED;
+    sig->options.quadrature = PHKS_QUADRATURE_VERTICES; /* as make()'s */
     sig->options.local_descriptor = descriptor;
     ck_assert_int_eq(phks__signature_alloc_layout(sig), PHKS_OK);
     size_t points = count + samples;

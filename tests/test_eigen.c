@@ -186,6 +186,9 @@ static phks_options eigen_options(int solver, int kind, double tau, size_t count
 {
     phks_options opt;
     phks_options_init(&opt);
+    /* The oracle is the vertices' operator (the quadrature's own is
+     * tested in test_quadrature.c). */
+    opt.quadrature = PHKS_QUADRATURE_VERTICES;
     opt.box = PHKS_BOX_AXIS_ALIGNED;
     opt.solver = solver;
     opt.operator_kind = kind;

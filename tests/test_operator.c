@@ -405,6 +405,7 @@ static void check_mesh(const char *name, const soup *s, double tau,
     for (int kind = 0; kind < 2; kind++) {
         phks_options opt;
         phks_options_init(&opt);
+        opt.quadrature = PHKS_QUADRATURE_VERTICES; /* the oracle's */
         opt.box = PHKS_BOX_AXIS_ALIGNED;
         opt.tau = tau;
         opt.cutoff = cutoff;
@@ -564,6 +565,7 @@ START_TEST(test_principal_box)
             for (int kind = 0; kind < 2; kind++) {
                 phks_options opt;
                 phks_options_init(&opt);
+                opt.quadrature = PHKS_QUADRATURE_VERTICES; /* the oracle's */
                 opt.box = PHKS_BOX_PRINCIPAL;
                 opt.operator_kind = kind;
                 opt.tau = 0.001;
@@ -638,6 +640,9 @@ START_TEST(test_cancel_operator)
     soup_free(&s);
     phks_options opt;
     phks_options_init(&opt);
+    /* A dense solve of the vertices alone: the quadrature's points would
+     * make it one of thousands. */
+    opt.quadrature = PHKS_QUADRATURE_VERTICES;
     opt.eigen_count = 10;
     opt.solver = PHKS_SOLVER_DENSE;
     opt.progress = progress_cb;

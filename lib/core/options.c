@@ -40,11 +40,13 @@ phks_status phks_options_init(phks_options *options)
     options->tolerance = 1e-10;
     options->simplify_above = 25000;
     options->simplify_target = 10000;
-    /* The vertices' quadrature: the triangles' gains on partial and
-     * incomplete queries but loses on complete ones (docs/retrieval.md),
-     * and costs time in proportion to the points it adds, 3-4 x on PSB's
-     * coarsest Bearing models (docs/benchmarks.md). */
-    options->quadrature = PHKS_QUADRATURE_VERTICES;
+    /* Points inside long triangles: a face meshed as two triangles then
+     * looks as it does meshed finely. With spin images proposing it
+     * gains on complete and partial queries alike and on catalogues of
+     * CAD parts (docs/retrieval.md, "Spin images with the triangle
+     * quadrature"); a mesh without a long triangle gets the vertices'
+     * bits. */
+    options->quadrature = PHKS_QUADRATURE_TRIANGLES;
     /* Points judged alone mistake a partial scan for any shape with a
      * few similar points; their layout along the surface tells them
      * apart (docs/retrieval.md). */
