@@ -52,7 +52,8 @@ shutil.rmtree(tmp)
 
 # The blob's layout: docs/formats.md (its header grew with the format).
 FORMAT = struct.unpack_from("<H", template, 4)[0]
-H = 52 + 12 * (FORMAT >= 2) + 4 * (FORMAT >= 3) + 4 * (FORMAT >= 4)
+H = 52 + 12 * (FORMAT >= 2) + 4 * (FORMAT >= 3) + 4 * (FORMAT >= 4) + \
+    4 * (FORMAT >= 5) + 4 * (FORMAT >= 6)
 S = struct.unpack_from("<I", template, 48)[0]
 head = template[:H + 8 * S]
 F = struct.unpack_from("<I", template, H + 8 * S)[0]
@@ -61,8 +62,8 @@ base_vectors = []
 for f in range(F):
     off = H + 8 * S + 4 + f * rec + 36
     base_vectors.append(struct.unpack_from("<%dd" % S, template, off))
-# The distances between the feature points (the verified matching's), the
-# template's: only the vectors move.
+# Everything after the features (the verified matching's samples,
+# distances and spin images), the template's: only the vectors move.
 geodesics = template[H + 8 * S + 4 + F * rec:-4]
 
 
