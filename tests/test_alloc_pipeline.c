@@ -181,6 +181,10 @@ static phks_options small_options(void)
 {
     phks_options o;
     phks_options_init(&o);
+    /* The vertices' quadrature: the default's points inside these
+     * triangles would be some hundreds more to solve in every step of
+     * every sweep; its own sweep is on a box (spectra_and_signatures). */
+    o.quadrature = PHKS_QUADRATURE_VERTICES;
     o.eigen_count = 24;
     o.tau = 0.002;
     o.threads = 1;
@@ -546,6 +550,25 @@ START_TEST(spectra_and_signatures)
     ck_assert_uint_lt(phks_spectrum_sample_count(spec), 100); /* simplified */
     phks_spectrum_free(spec);
     sweep("spectrum HKS-simp", step_spectrum, &cs, 10);
+
+    /* The default triangle quadrature (lib/geometry/quadrature.c): a cube
+     * of 12 triangles, each longer than the kernel's width, at a tau that
+     * keeps its points to about a hundred and fifty. */
+    soup box = {0};
+    for (int v = 0; v < 8; v++)
+        soup_vertex(&box, v & 1, (v >> 1) & 1, (v >> 2) & 1);
+    static const uint32_t faces[12][3] = {
+        {0, 2, 3}, {0, 3, 1}, {4, 5, 7}, {4, 7, 6}, {0, 1, 5}, {0, 5, 4},
+        {2, 6, 7}, {2, 7, 3}, {0, 4, 6}, {0, 6, 2}, {1, 3, 7}, {1, 7, 5}};
+    for (int t = 0; t < 12; t++)
+        soup_triangle(&box, faces[t][0], faces[t][1], faces[t][2]);
+    phks_mesh *cube = soup_mesh_take(&box);
+    compute_ctx cq = {cube, small_options(), NULL, NULL};
+    cq.options.quadrature = PHKS_QUADRATURE_TRIANGLES;
+    cq.options.tau = 0.02;
+    cq.options.eigen_count = 8;
+    sweep("signature triangles", step_signature, &cq, 10);
+    phks_mesh_free(cube);
 
     /* HKS and signatures from a spectrum computed beforehand, exact and
      * simplified; phks_signature_compute is the two steps in one, which
