@@ -75,9 +75,9 @@ def test_topk(pg, sigs, work):
 
 def format1_blob(path):
     """The format-1 bytes (0.1.0's) of a format-2 blob made with
-    boundary_margin 0 and hks_scaling none: the same without the fields at
-    offsets 52 (8 bytes) and 60 (4 bytes), the checksum made again
-    (docs/formats.md)."""
+    boundary_margin 0, hks_scaling none and the vertices' quadrature: the
+    same without the fields at offsets 52 (8 bytes) and 60 (4 bytes), the
+    checksum made again (docs/formats.md)."""
     with open(path, "rb") as f:
         blob = f.read()
     assert struct.unpack_from("<H", blob, 4)[0] == 2
@@ -122,7 +122,8 @@ def test_equality(pg, sigs, meshes, work):
     # signature, and equals it.
     made = pgutil.signatures(phks, meshes[:1], os.path.join(work, "sigs"),
                              ["--boundary-margin", "0", "--hks-scaling",
-                              "none", "--matching", "nearest"])[0]
+                              "none", "--matching", "nearest",
+                              "--quadrature", "vertices"])[0]
     old = format1_blob(made)
     rows = pg.sql("SELECT '%s'::phks_signature::bytea = decode('%s', 'hex'),"
                   " '%s'::phks_signature = '%s'::phks_signature;"

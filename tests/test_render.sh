@@ -21,7 +21,6 @@ trap 'rm -rf "$tmp"' EXIT
 cd "$tmp" || exit 1
 
 . "$helpers"
-phks=$(at_vertices "$phks")
 
 # bowl NU NV K F: an open hemisphere of radius 1 as OFF, its rim the
 # circle of radius 1 at z = 0 and its pole at z = -1, with F bumps of
