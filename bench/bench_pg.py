@@ -51,9 +51,7 @@ template = open(pgutil.signatures(phks, [mesh], tmp)[0], "rb").read()
 shutil.rmtree(tmp)
 
 # The blob's layout: docs/formats.md (its header grew with the format).
-FORMAT = struct.unpack_from("<H", template, 4)[0]
-H = 52 + 12 * (FORMAT >= 2) + 4 * (FORMAT >= 3) + 4 * (FORMAT >= 4) + \
-    4 * (FORMAT >= 5) + 4 * (FORMAT >= 6)
+H = pgutil.header_size(pgutil.blob_format(template))
 S = struct.unpack_from("<I", template, 48)[0]
 head = template[:H + 8 * S]
 F = struct.unpack_from("<I", template, H + 8 * S)[0]

@@ -20,6 +20,7 @@ import os
 import shutil
 import signal
 import socket
+import struct
 import subprocess
 import sys
 import tempfile
@@ -386,6 +387,20 @@ def tool_db(phks, path, files):
                        capture_output=True, text=True)
     if r.returncode != 0:
         raise SystemExit("phks db add: " + r.stderr)
+
+
+def blob_format(blob):
+    """The format number of a signature blob (docs/formats.md)."""
+    return struct.unpack_from("<H", blob, 4)[0]
+
+
+def header_size(fmt):
+    """Bytes before the scales in a signature blob of format fmt: format
+    1's 52, the margin and scaling fields from format 2 on, then one
+    4-byte field more in each of formats 3 to 6 (docs/formats.md)."""
+    return 52 + (12 if fmt >= 2 else 0) + (4 if fmt >= 3 else 0) + \
+        (4 if fmt >= 4 else 0) + (4 if fmt >= 5 else 0) + \
+        (4 if fmt >= 6 else 0)
 
 
 def hexfile(path):

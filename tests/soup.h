@@ -36,6 +36,11 @@ phks_mesh *soup_mesh_take(soup *s);
 void add_icosphere(soup *out, unsigned subdiv, const double center[3],
                    const double axes[3], double noise, uint64_t *rng);
 
+/* Appends the surface of the box [0,a] x [0,b] x [0,c] (size) with
+ * cells[d] cells along axis d on every face, two triangles per cell,
+ * vertices shared, faces wound outwards. */
+void add_box(soup *s, const double size[3], const size_t cells[3]);
+
 /* Appends a closed torus of nu * nv quads about the z axis (radii big and
  * small), angles jittered by jitter * U(-1/2, 1/2) steps (0: exact). */
 void add_torus(soup *s, size_t nu, size_t nv, double big, double small,

@@ -551,13 +551,9 @@ START_TEST(spectra_and_signatures)
      * triangles, each longer than the kernel's width, at a tau that keeps
      * its points to about a hundred and fifty. */
     soup box = {0};
-    for (int v = 0; v < 8; v++)
-        soup_vertex(&box, v & 1, (v >> 1) & 1, (v >> 2) & 1);
-    static const uint32_t faces[12][3] = {
-        {0, 2, 3}, {0, 3, 1}, {4, 5, 7}, {4, 7, 6}, {0, 1, 5}, {0, 5, 4},
-        {2, 6, 7}, {2, 7, 3}, {0, 4, 6}, {0, 6, 2}, {1, 3, 7}, {1, 7, 5}};
-    for (int t = 0; t < 12; t++)
-        soup_triangle(&box, faces[t][0], faces[t][1], faces[t][2]);
+    const double side[3] = {1, 1, 1};
+    const size_t one[3] = {1, 1, 1};
+    add_box(&box, side, one);
     phks_mesh *cube = soup_mesh_take(&box);
     compute_ctx cq = {cube, small_options(), NULL, NULL};
     cq.options.quadrature = PHKS_QUADRATURE_TRIANGLES;

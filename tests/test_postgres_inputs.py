@@ -289,14 +289,8 @@ SPIN_BYTES = 100
 SHAPE_BINS = 32
 
 
-def header_size(fmt):
-    return 52 + (12 if fmt >= 2 else 0) + (4 if fmt >= 3 else 0) + \
-        (4 if fmt >= 4 else 0) + (4 if fmt >= 5 else 0) + \
-        (4 if fmt >= 6 else 0)
-
-
-def blob_format(blob):
-    return struct.unpack_from("<H", blob, 4)[0]
+header_size = pgutil.header_size
+blob_format = pgutil.blob_format
 
 
 def count_offset(blob):

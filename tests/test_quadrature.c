@@ -35,45 +35,12 @@
  * Meshes
  * ===================================================================== */
 
-/* The surface of the box [0,a] x [0,b] x [0,c] with cells[d] cells along
- * axis d on every face, two triangles per cell, vertices shared. */
+/* The box [0,a] x [0,b] x [0,c] with cells[d] cells along axis d
+ * (soup.h, add_box). */
 static phks_mesh *box_mesh(const double size[3], const size_t cells[3])
 {
     soup s = {0};
-    size_t dim[3] = {cells[0] + 1, cells[1] + 1, cells[2] + 1};
-    uint32_t *id = malloc(dim[0] * dim[1] * dim[2] * sizeof *id);
-    ck_assert_ptr_nonnull(id);
-    for (size_t i = 0; i < dim[0] * dim[1] * dim[2]; i++)
-        id[i] = UINT32_MAX;
-    for (int d = 0; d < 3; d++)
-        for (int side = 0; side < 2; side++) {
-            int u = (d + 1) % 3, w = (d + 2) % 3;
-            for (size_t i = 0; i < cells[u]; i++)
-                for (size_t j = 0; j < cells[w]; j++) {
-                    uint32_t corner[4];
-                    for (int k = 0; k < 4; k++) {
-                        size_t g[3];
-                        g[d] = side ? cells[d] : 0;
-                        g[u] = i + (k == 1 || k == 2);
-                        g[w] = j + (k >= 2);
-                        size_t at = (g[2] * dim[1] + g[1]) * dim[0] + g[0];
-                        if (id[at] == UINT32_MAX)
-                            id[at] = soup_vertex(&s,
-                                                 size[0] * (double)g[0] / cells[0],
-                                                 size[1] * (double)g[1] / cells[1],
-                                                 size[2] * (double)g[2] / cells[2]);
-                        corner[k] = id[at];
-                    }
-                    if (side) {
-                        soup_triangle(&s, corner[0], corner[1], corner[2]);
-                        soup_triangle(&s, corner[0], corner[2], corner[3]);
-                    } else {
-                        soup_triangle(&s, corner[0], corner[2], corner[1]);
-                        soup_triangle(&s, corner[0], corner[3], corner[2]);
-                    }
-                }
-        }
-    free(id);
+    add_box(&s, size, cells);
     return soup_mesh_take(&s);
 }
 
