@@ -312,6 +312,40 @@ for m, s in list(zip(meshes, sigs))[:3] + [(meshes[-1], sigs[-1])]:
     check(rows[0][0] == pgutil.hexfile(s),
           "phks_signature_from_mesh(%s) equals the tool's blob" %
           os.path.basename(m))
+# With options: the tool's blob made with the same options, and again from
+# that blob's own phks_options (how a table's options are taken from a
+# row); every member absent keeps its default.
+m, s = meshes[0], sigs[0]
+with open(m, "rb") as f:
+    mesh_hex = f.read().hex()
+other = os.path.join(work, "other-options.sig")
+subprocess.run([phks, "--quadrature", "vertices", "--hks-scaling", "none",
+                "--matching", "nearest", "signature", m, "-o", other],
+               check=True)
+from_mesh = ("SELECT phks_signature_from_mesh(decode('%s', 'hex'), 'auto', "
+             "%%s);" % mesh_hex)
+rows = pg.sql(from_mesh % "'{\"quadrature\": \"vertices\", "
+              "\"hks_scaling\": 0, \"matching\": \"nearest\"}'")
+check(rows[0][0] == pgutil.hexfile(other),
+      "phks_signature_from_mesh with options equals the tool's blob")
+rows = pg.sql(from_mesh % ("phks_options('\\x%s'::bytea::phks_signature)"
+                           "::jsonb" % pgutil.hexfile(other)))
+check(rows[0][0] == pgutil.hexfile(other),
+      "phks_signature_from_mesh with a row's phks_options makes its blob")
+rows = pg.sql(from_mesh % "'{}'")
+check(rows[0][0] == pgutil.hexfile(s), "no options: the defaults")
+for options, words in [
+        ('{"quadrature": "edges"}', "quadrature: 'edges' is not one of"),
+        ('{"tau": -1}', "tau"),
+        ('{"no_such": 1}', '"no_such" is no option'),
+        ('{"threads": 2}', '"threads" cannot be set'),
+        ('{"hks_scaling": 0, "hks_scaling_name": "mean"}',
+         '"hks_scaling_name" disagrees'),
+        ('{"matching": true}', '"matching" needs a number'),
+        ('[1, 2]', "options must be a JSON object")]:
+    err = pg.error(from_mesh % ("'%s'" % options))
+    check("ERROR" in err and words in err,
+          "options %s: %s" % (options, err.strip()))
 err = pg.error("SELECT phks_signature_from_mesh('\\x4f46460a'::bytea);")
 check("ERROR" in err and "phks_signature_from_mesh" in err,
       "a bad mesh: %s" % err)
