@@ -32,7 +32,8 @@
  *   BLAS, results (a signature's blob, every score) are the same bits on
  *   every run, whatever the threads option and the BLAS's own thread count
  *   (OPENBLAS_NUM_THREADS). Not across BLAS builds, nor across processors
- *   where the library's run-time kernel choice (AVX2 and FMA) differs; and
+ *   where the library's run-time kernel choice (AVX2 and FMA) or the
+ *   BLAS's (OpenBLAS picks its kernels by processor) differs; and
  *   with PHKS_SOLVER_ARPACK, ARPACK's own BLAS calls may round differently
  *   with the BLAS's thread count (docs/guide.md, "Threads").
  * - Pointers returned by accessors stay valid until the handle is freed.
@@ -203,7 +204,8 @@ typedef enum phks_quadrature {
      * triangles (the paper). Where vertices lie farther apart than the
      * kernel's width sqrt(4 tau) (a CAD part's flat face as two long
      * triangles) the kernel does not reach across and heat does not
-     * cross the face: the signature describes the tessellation. */
+     * cross the face: the signature describes the tessellation. The
+     * default of 0.2.0. */
     PHKS_QUADRATURE_VERTICES = 0,
     /* Also inside every triangle whose longest edge exceeds sqrt(4 tau)
      * (unit box): it is covered by a triangular lattice of side at most
@@ -213,12 +215,14 @@ typedef enum phks_quadrature {
      * at the vertices (which are among them): vertex ids stay the input's
      * and no point is visible outside the library. The local areas of
      * PHKS_HKS_SCALING_LOCAL_AREA and the principal box integrate over the
-     * triangles too. A mesh without such a triangle gets the same bits as
-     * with VERTICES (docs/method.md section 13). The points can be a few
-     * times the vertices (3.2 x on PSB's coarsest Bearing models, 1.04 x
-     * over all of PSB) and the solve is exact on all of them: time and
-     * memory grow with them (docs/benchmarks.md). Meshes on the HKS-simp
-     * path keep the vertices' operator. */
+     * triangles too. A mesh without such a triangle gets the same
+     * numbers as with VERTICES (docs/method.md section 13), though its
+     * options, which record TRIANGLES, keep the two from being compared.
+     * The points can be a few times the vertices (3.2 x on PSB's coarsest
+     * Bearing models, 1.04 x over all of PSB) and the solve is exact on
+     * all of them: time and memory grow with them (docs/benchmarks.md).
+     * Meshes on the HKS-simp path keep the vertices' operator. The
+     * default since 0.3.0. */
     PHKS_QUADRATURE_TRIANGLES = 1
 } phks_quadrature;
 
@@ -384,10 +388,11 @@ typedef struct phks_options {
                                 lands within a few percent; more is
                                 closer to exact, and slower): 10000;
                                 16..10^8                                 */
-    int32_t quadrature;      /* phks_quadrature: VERTICES (the paper's;
-                                TRIANGLES makes a coarsely triangulated
-                                face look like a finely meshed one,
-                                docs/method.md section 13)               */
+    int32_t quadrature;      /* phks_quadrature: TRIANGLES since 0.3.0,
+                                which makes a coarsely triangulated face
+                                look like a finely meshed one
+                                (docs/method.md section 13; the paper's
+                                and 0.2.0's is VERTICES)                 */
     int32_t matching;        /* phks_matching: VERIFIED (the paper's is
                                 NEAREST). VERIFIED signatures also hold
                                 the distances between their feature

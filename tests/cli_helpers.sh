@@ -17,6 +17,20 @@ expect_rc() { [ "$rc" = "$1" ] || fail "${2:-}: exit status $rc, expected $1"; }
 expect_out() { grep -q -- "$1" out || fail "${2:-}: stdout lacks '$1'"; }
 expect_err() { grep -q -- "$1" err || fail "${2:-}: stderr lacks '$1'"; }
 
+# at_vertices PHKS: the path of a script made here that runs PHKS with the
+# paper's quadrature at the vertices (--quadrature vertices; a later
+# --quadrature on its line wins). The scripts' meshes have a few hundred
+# vertices and triangles far longer than the kernel's width: the default
+# quadrature's points inside them, thousands per mesh, would make every
+# signature cost a PSB model's time (past the sanitizers' timeouts) in
+# tests of the tool, not of the quadrature (tests/test_quadrature.c).
+at_vertices() {
+    printf '#!/bin/sh\nexec "%s" --quadrature vertices "$@"\n' "$1" \
+        >phks-at-vertices
+    chmod +x phks-at-vertices
+    echo "$(pwd)/phks-at-vertices"
+}
+
 # blob NU NV A B C BUMP FREQ: a closed bumpy ellipsoid as OFF, 2 + NU (NV-1)
 # vertices; the bumps (FREQ of them around the equator) give the heat
 # kernel distinct maxima.

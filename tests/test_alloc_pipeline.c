@@ -181,6 +181,10 @@ static phks_options small_options(void)
 {
     phks_options o;
     phks_options_init(&o);
+    /* The vertices' quadrature: the default's points inside these
+     * triangles would be some hundreds more to solve in every step of
+     * every sweep; its own sweep is on a box (spectra_and_signatures). */
+    o.quadrature = PHKS_QUADRATURE_VERTICES;
     o.eigen_count = 24;
     o.tau = 0.002;
     o.threads = 1;
@@ -547,9 +551,9 @@ START_TEST(spectra_and_signatures)
     phks_spectrum_free(spec);
     sweep("spectrum HKS-simp", step_spectrum, &cs, 10);
 
-    /* The triangle quadrature (lib/geometry/quadrature.c): a cube of 12
-     * triangles, each longer than the kernel's width, at a tau that keeps
-     * its points to about a hundred and fifty. */
+    /* The default triangle quadrature (lib/geometry/quadrature.c): a cube
+     * of 12 triangles, each longer than the kernel's width, at a tau that
+     * keeps its points to about a hundred and fifty. */
     soup box = {0};
     const double side[3] = {1, 1, 1};
     const size_t one[3] = {1, 1, 1};

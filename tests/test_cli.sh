@@ -12,6 +12,10 @@ trap 'rm -rf "$tmp"' EXIT
 cd "$tmp" || exit 1
 
 . "$helpers"
+# The tool itself where its defaults are the subject; elsewhere the
+# vertices' quadrature (cli_helpers.sh, at_vertices).
+tool=$phks
+phks=$(at_vertices "$tool")
 
 mkdir -p set/star set/bar
 blob 24 12 1.0 1.0 0.5 0.35 3 > a.off
@@ -574,18 +578,21 @@ run "$phks" db query t.db none.sig; expect_rc 1 "db query of an incompatible blo
 expect_err "^phks: none.sig: made with other options than the database's: --hks-scaling none against local-area$"
 ! grep -q "hks_scaling\|local_area" err || fail "db query: C spelling in a message"
 # --quadrature: a box of 12 triangles (its faces far longer than the
-# kernel), the option recorded, refused against a database made without.
+# kernel), the default recorded, triangles refused against a database
+# made at the vertices.
 printf 'OFF\n8 12 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n0 0 1\n1 0 1\n1 1 1\n0 1 1\n3 0 2 1\n3 0 3 2\n3 4 5 6\n3 4 6 7\n3 0 1 5\n3 0 5 4\n3 1 2 6\n3 1 6 5\n3 2 3 7\n3 2 7 6\n3 3 0 4\n3 3 4 7\n' > box.off
-run "$phks" --quadrature triangles signature box.off --json; expect_rc 0 \
-    "signature --quadrature triangles"
+run "$tool" signature box.off --json; expect_rc 0 "signature of the box"
 expect_out '"quadrature": "triangles"'
-run "$phks" --quadrature bogus signature box.off; expect_rc 2 \
+run "$phks" signature box.off --json; expect_rc 0 \
+    "signature --quadrature vertices"
+expect_out '"quadrature": "vertices"'
+run "$tool" --quadrature bogus signature box.off; expect_rc 2 \
     "--quadrature bogus"
 expect_err "^phks: --quadrature: 'bogus' is not one of vertices, triangles$"
-run "$phks" --quadrature triangles db query t.db box.off; expect_rc 1 \
+run "$tool" --quadrature triangles db query t.db box.off; expect_rc 1 \
     "db query --quadrature triangles against a database made without"
 expect_err "^phks: t.db: the options given are not the database's: --quadrature triangles against vertices "
-run "$phks" --quadrature triangles signature box.off -o q.sig; expect_rc 0
+run "$tool" signature box.off -o q.sig; expect_rc 0
 run "$phks" match q.sig box.off; expect_rc 1 "match of blobs made with other quadratures"
 expect_err "^phks: q.sig and box.off: made with different options: --quadrature triangles against vertices$"
 # --local-descriptor: recorded, refused against a database or a blob of

@@ -16,6 +16,7 @@ py=/usr/bin/python3
 if [ "${2:-}" = --inside ]; then
     cd "$3" || exit 1
     . "$helpers"
+    phks=$(at_vertices "$phks")
     mkdir disk && mount -t tmpfs -o size=4M tmpfs disk ||
         { echo "SKIP: cannot mount a tmpfs"; exit 77; }
     run "$phks" db add disk/t.db m0.off m1.off -j 2; expect_rc 0 "db add"

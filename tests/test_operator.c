@@ -640,6 +640,9 @@ START_TEST(test_cancel_operator)
     soup_free(&s);
     phks_options opt;
     phks_options_init(&opt);
+    /* A dense solve of the vertices alone: the quadrature's points would
+     * make it one of thousands. */
+    opt.quadrature = PHKS_QUADRATURE_VERTICES;
     opt.eigen_count = 10;
     opt.solver = PHKS_SOLVER_DENSE;
     opt.progress = progress_cb;

@@ -15,7 +15,8 @@ meson test each so that each stays short:
           corpora, test_hostile.c's meshes (non-finite, extreme and
           degenerate coordinates, lying counts, indices at UINT32_MAX,
           truncated and lying gzip, a gzip bomb) and seeded mutations of
-          small meshes in every format
+          small meshes in every format (most with options, through
+          phks_signature_from_mesh(mesh, format, options))
   keys    phks_key's text and binary input and key <#> sig on damaged and
           mutated keys
   memory  10,000 failing calls in one backend: its resident memory
@@ -881,10 +882,19 @@ FORMATS = ["auto", "off", "obj", "ply", "stl"]
 BAD_FORMATS = ["", "xyz", "gz", "off.gz", "o f f", "é", "x" * 1000]
 
 
-def mesh_statement(i, fmt, kind, expect):
+def mesh_statement(i, fmt, kind, expect, options=None):
     return Statement("phks_signature_from_mesh", kind,
-                     "SELECT phks_signature_from_mesh(b, %s) FROM inputs "
-                     "WHERE id = %d;" % (sql_text(fmt), i), expect)
+                     "SELECT phks_signature_from_mesh(b, %s%s) FROM inputs "
+                     "WHERE id = %d;" % (sql_text(fmt), options and
+                                         ", '%s'" % options or "", i),
+                     expect)
+
+
+# The mutations' meshes are small and coarse: the default quadrature gives
+# each some thousands of points inside its long triangles, a second of
+# computing; most are read at the vertices (through the options), every
+# eighth with the defaults.
+AT_VERTICES = '{"quadrature": "vertices"}'
 
 
 TEXT_MESHES = ("off", "obj", "ply_ascii", "stl_ascii")
@@ -937,7 +947,8 @@ def part_meshes(pg, work, rng):
     statements += [mesh_statement(0, fmt, "unknown format", "unknown format")
                    for fmt in BAD_FORMATS]
     for j, (kind, _, fmt) in enumerate(mutations):
-        statements.append(mesh_statement(every_format + j, fmt, kind, None))
+        statements.append(mesh_statement(every_format + j, fmt, kind, None,
+                                         AT_VERTICES if j % 8 else None))
     bomb = len(inputs) - 1
     statements += [mesh_statement(bomb, fmt, "gzip bomb", "")
                    for fmt in FORMATS]

@@ -10,12 +10,12 @@
  *
  * The blobs are four creatures' signatures (two kinds, two poses, and a
  * partial scan), once with the default options (verified matching, spin
- * images), once with the heat vectors proposing (PHKS_LOCAL_DESCRIPTOR_HEAT)
- * and once with PHKS_MATCHING_NEAREST. A row of the table is an ordered pair
- * of blobs of the same options: the bits of phks_score, of
- * phks_score_nearest and of phks_match's score, as 16 hex digits, then
- * the number of phks_match's rows marked verified and each feature of the
- * query's verified partner ('-': none).
+ * images, the triangle quadrature), once with the heat vectors proposing
+ * (PHKS_LOCAL_DESCRIPTOR_HEAT) and once with PHKS_MATCHING_NEAREST. A row
+ * of the table is an ordered pair of blobs of the same options: the bits
+ * of phks_score, of phks_score_nearest and of phks_match's score, as 16
+ * hex digits, then the number of phks_match's rows marked verified and
+ * each feature of the query's verified partner ('-': none).
  *
  * Made, blobs and table, by the default build on x86-64:
  *   build/tests/test_score_bits --write tests/data/score_bits

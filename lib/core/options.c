@@ -40,14 +40,16 @@ phks_status phks_options_init(phks_options *options)
     options->tolerance = 1e-10;
     options->simplify_above = 25000;
     options->simplify_target = 10000;
-    /* The vertices' quadrature. The triangles' gains on every kind of
-     * query with spin images proposing (docs/retrieval.md), but gives a
-     * coarse mesh as many points as its area holds at the kernel's width
-     * (8,234 for a cube of 12 triangles): a small mesh's signature costs
-     * what a PSB model's does, 8 x on a sphere of 144 vertices
-     * (docs/benchmarks.md), and PostgreSQL's phks_signature_from_mesh,
-     * which takes no options, cannot choose. */
-    options->quadrature = PHKS_QUADRATURE_VERTICES;
+    /* Points inside long triangles: a face meshed as two triangles then
+     * looks as it does meshed finely. With spin images proposing it
+     * gains on complete and partial queries alike and on catalogues of
+     * CAD parts (docs/retrieval.md, "Spin images with the triangle
+     * quadrature"); a mesh without a long triangle gets the vertices'
+     * numbers. A small coarse mesh pays for it, its points bounded by its
+     * area and not its vertices (a cube of 12 triangles gets 8,234,
+     * docs/benchmarks.md), so every binding lets its caller ask for the
+     * vertices (PostgreSQL's phks_signature_from_mesh too). */
+    options->quadrature = PHKS_QUADRATURE_TRIANGLES;
     /* Points judged alone mistake a partial scan for any shape with a
      * few similar points; their layout along the surface tells them
      * apart (docs/retrieval.md). */

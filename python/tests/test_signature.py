@@ -57,7 +57,7 @@ def test_options_are_keywords_with_the_c_defaults(creature_mesh,
     assert d["operator_kind"] == "random_walk" and d["box"] == "principal"
     assert d["hks_scaling"] == "local_area" and d["solver"] == "auto"
     assert d["boundary_margin"] == 2 and d["tolerance"] == 1e-10
-    assert d["quadrature"] == "vertices"
+    assert d["quadrature"] == "triangles"
     assert d["simplify_above"] == 25000 and d["simplify_target"] == 10000
     # Every default spelled out gives the default signature.
     assert_same_signature(phks.signature(creature_mesh, **d),
@@ -74,9 +74,9 @@ def test_options_are_keywords_with_the_c_defaults(creature_mesh,
     assert len(a) <= 5 and a.vector_length == 3
     assert a.options["operator_kind"] == "literal"
     assert a.options["scales"] == (5, 50, 500)
-    q = phks.signature(creature_mesh, quadrature="triangles", feature_count=5)
-    assert q.options["quadrature"] == "triangles"
-    assert phks.signature(creature_mesh, quadrature=1,
+    q = phks.signature(creature_mesh, quadrature="vertices", feature_count=5)
+    assert q.options["quadrature"] == "vertices"
+    assert phks.signature(creature_mesh, quadrature=0,
                           feature_count=5).options == q.options
 
 
