@@ -693,9 +693,11 @@ CREATE FUNCTION raw.key_distance(bytea, phks_signature) RETURNS float8
 """
 
 # Signatures made with other options than the defaults: the global options
-# of the tool.
+# of the tool (the nearest one at the vertices, so that it is format 2's:
+# the default quadrature makes format 3).
 OPTION_VARIANTS = [["--hks-scaling", "none"], ["--hks-scaling", "mean"],
-                   ["--matching", "nearest"], ["--quadrature", "triangles"],
+                   ["--matching", "nearest", "--quadrature", "vertices"],
+                   ["--quadrature", "vertices"],
                    ["--operator", "literal"], ["--boundary-margin", "0"],
                    ["--local-descriptor", "heat"]]
 
