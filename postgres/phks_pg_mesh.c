@@ -172,7 +172,7 @@ static void options_from_jsonb(Jsonb *json, phks_options *o)
                         errmsg("phks_signature_from_mesh: options must be a "
                                "JSON object, as phks_options(signature) "
                                "writes")));
-    bool seen[64] = {false};
+    uint64_t seen = 0; /* options set by earlier members, a bit each */
     JsonbIterator *it = JsonbIteratorInit(&json->root);
     JsonbValue v;
     JsonbIteratorToken tok;
@@ -197,11 +197,11 @@ static void options_from_jsonb(Jsonb *json, phks_options *o)
         if (st != PHKS_OK)
             phks_pg_error(st, "phks_signature_from_mesh: options",
                           phks_pg_last_message(st));
-        if (index < lengthof(seen) && seen[index] &&
+        uint64_t bit = index < 64 ? UINT64_C(1) << index : 0;
+        if ((seen & bit) &&
             strcmp(option_value(o, index), option_value(&trial, index)) != 0)
             options_error("disagrees with the option's number", key);
-        if (index < lengthof(seen))
-            seen[index] = true;
+        seen |= bit;
         *o = trial;
     }
 }

@@ -78,8 +78,9 @@ NUMBER = re.compile(r"-?[0-9]+\.[0-9]+(?:[eE][-+]?[0-9]+)?")
 
 
 def long_number(text):
-    return len(re.sub(r"[^0-9]", "", text.split("e")[0].split("E")[0])
-               .lstrip("0")) >= 15
+    """Whether the number's mantissa has 15 or more significant digits."""
+    digits = re.sub(r"[^0-9]", "", re.split(r"[eE]", text)[0])
+    return len(digits.lstrip("0")) >= 15
 
 
 def same_line(expected, got):

@@ -885,11 +885,11 @@ BAD_FORMATS = ["", "xyz", "gz", "off.gz", "o f f", "é", "x" * 1000]
 
 
 def mesh_statement(i, fmt, kind, expect, options=None):
+    """The call on input i read as fmt, with options (JSON) when given."""
+    args = sql_text(fmt) + (", '%s'" % options if options else "")
     return Statement("phks_signature_from_mesh", kind,
-                     "SELECT phks_signature_from_mesh(b, %s%s) FROM inputs "
-                     "WHERE id = %d;" % (sql_text(fmt), options and
-                                         ", '%s'" % options or "", i),
-                     expect)
+                     "SELECT phks_signature_from_mesh(b, %s) FROM inputs "
+                     "WHERE id = %d;" % (args, i), expect)
 
 
 # The mutations' meshes are small and coarse: the default quadrature gives

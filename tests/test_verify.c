@@ -757,14 +757,22 @@ START_TEST(nearest_vectors_follow_the_formula)
 }
 END_TEST
 
+/* A case of suite s with the creatures' timeout. */
+static TCase *timed_case(Suite *s, const char *name)
+{
+    TCase *c = tcase_create(name);
+    tcase_set_timeout(c, 600);
+    suite_add_tcase(s, c);
+    return c;
+}
+
 int main(void)
 {
     /* Three cases, which meson runs as three tests (CK_RUN_CASE): each
      * creature case builds its catalogue twice, and together they outlast
      * one test's timeout under the sanitizers. */
     Suite *s = suite_create("verify");
-    TCase *c = tcase_create("verify");
-    tcase_set_timeout(c, 600);
+    TCase *c = timed_case(s, "verify");
     tcase_add_test(c, grid_distances_are_edge_paths);
     tcase_add_test(c, pieces_join_within_reach);
     tcase_add_test(c, merged_cells_keep_distances);
@@ -772,16 +780,9 @@ int main(void)
     tcase_add_test(c, creature_symmetries_are_found);
     tcase_add_test(c, database_query_is_two_stages);
     tcase_add_test(c, nearest_vectors_follow_the_formula);
-    suite_add_tcase(s, c);
-    TCase *bend = tcase_create("bend");
-    tcase_set_timeout(bend, 600);
-    tcase_add_loop_test(bend, bend_keeps_correspondences,
+    tcase_add_loop_test(timed_case(s, "bend"), bend_keeps_correspondences,
                         PHKS_LOCAL_DESCRIPTOR_HEAT, PHKS_LOCAL_DESCRIPTOR_SPIN + 1);
-    suite_add_tcase(s, bend);
-    TCase *parts = tcase_create("parts");
-    tcase_set_timeout(parts, 600);
-    tcase_add_loop_test(parts, parts_verify_right_pairs,
+    tcase_add_loop_test(timed_case(s, "parts"), parts_verify_right_pairs,
                         PHKS_LOCAL_DESCRIPTOR_HEAT, PHKS_LOCAL_DESCRIPTOR_SPIN + 1);
-    suite_add_tcase(s, parts);
     return run_suite(s);
 }
